@@ -1,0 +1,250 @@
+// Emission–absorption ray marching, one invocation per pixel.
+// The marching rule is the one in src/integrate.rs (the f64 oracle): the chord
+// through the box is cut into step-long segments (the last one shorter), each
+// sampled at its midpoint and weighted by its own length.
+
+// 0: ambient only (no normals read), 1: supplied normals, 2: on-the-fly gradient.
+override SHADING: u32 = 0u;
+override POINT_LIGHT: bool = false;
+override EARLY_TERMINATION: bool = true;
+override POWER_CORRECTION: bool = false;
+
+struct Params {
+    // Positions are relative to the box's min corner: the box is [0, extent].
+    cam_pos: vec4<f32>,
+    cam_fwd: vec4<f32>,
+    cam_right: vec4<f32>,   // scaled by aspect * tan(fov / 2)
+    cam_up: vec4<f32>,      // scaled by tan(fov / 2)
+    extent: vec4<f32>,
+    inv_extent: vec4<f32>,
+    inv_two_spacing: vec4<f32>,  // 1 / (2 * voxel spacing), world axes
+    light_pos: vec4<f32>,
+    light_dir: vec4<f32>,   // directional: unit direction the light travels
+    step_size: f32,
+    inv_ref: f32,
+    ambient: f32,
+    diffuse: f32,
+    threshold: f32,
+    max_steps: u32,
+    width: u32,
+    height: u32,
+    lut_size: u32,
+    light_valid: u32,       // directional light with a defined direction
+    _pad0: u32,
+    _pad1: u32,
+};
+
+@group(0) @binding(0) var<uniform> P: Params;
+@group(0) @binding(1) var volume: texture_3d<f32>;
+@group(0) @binding(2) var normals: texture_3d<f32>;
+@group(0) @binding(3) var<storage, read> lut: array<vec4<f32>>;
+@group(0) @binding(4) var<storage, read_write> out_rgba: array<vec4<f32>>;
+// Largest step count a ray needed when max_steps cut it short.
+@group(0) @binding(5) var<storage, read_write> truncated_needed: atomic<u32>;
+
+fn is_nan(v: f32) -> bool {
+    // Bit test: compilers may fold `v != v` away under fast-math assumptions.
+    return (bitcast<u32>(v) & 0x7fffffffu) > 0x7f800000u;
+}
+
+// Texel-space coordinate (texture x = numpy axis 2) of a unit-box point.
+fn texel_coord(q: vec3<f32>) -> vec3<f32> {
+    let dims = vec3<f32>(textureDimensions(volume));
+    return q.zyx * dims - 0.5;
+}
+
+// Cell-centred trilinear interpolation with clamp-to-edge, done by hand so it
+// works for every stored format and keeps full float weights.
+fn trilinear(u: vec3<f32>) -> f32 {
+    let hi = vec3<i32>(textureDimensions(volume)) - 1;
+    let f = floor(u);
+    let w = u - f;
+    let a = clamp(vec3<i32>(f), vec3<i32>(0), hi);
+    let b = clamp(vec3<i32>(f) + 1, vec3<i32>(0), hi);
+    let c000 = textureLoad(volume, vec3<i32>(a.x, a.y, a.z), 0).r;
+    let c100 = textureLoad(volume, vec3<i32>(b.x, a.y, a.z), 0).r;
+    let c010 = textureLoad(volume, vec3<i32>(a.x, b.y, a.z), 0).r;
+    let c110 = textureLoad(volume, vec3<i32>(b.x, b.y, a.z), 0).r;
+    let c001 = textureLoad(volume, vec3<i32>(a.x, a.y, b.z), 0).r;
+    let c101 = textureLoad(volume, vec3<i32>(b.x, a.y, b.z), 0).r;
+    let c011 = textureLoad(volume, vec3<i32>(a.x, b.y, b.z), 0).r;
+    let c111 = textureLoad(volume, vec3<i32>(b.x, b.y, b.z), 0).r;
+    let x00 = c000 + (c100 - c000) * w.x;
+    let x10 = c010 + (c110 - c010) * w.x;
+    let x01 = c001 + (c101 - c001) * w.x;
+    let x11 = c011 + (c111 - c011) * w.x;
+    let y0 = x00 + (x10 - x00) * w.y;
+    let y1 = x01 + (x11 - x01) * w.y;
+    return y0 + (y1 - y0) * w.z;
+}
+
+fn supplied_normal(u: vec3<f32>) -> vec3<f32> {
+    let hi = vec3<i32>(textureDimensions(normals)) - 1;
+    let f = floor(u);
+    let w = u - f;
+    let a = clamp(vec3<i32>(f), vec3<i32>(0), hi);
+    let b = clamp(vec3<i32>(f) + 1, vec3<i32>(0), hi);
+    let c000 = textureLoad(normals, vec3<i32>(a.x, a.y, a.z), 0).xyz;
+    let c100 = textureLoad(normals, vec3<i32>(b.x, a.y, a.z), 0).xyz;
+    let c010 = textureLoad(normals, vec3<i32>(a.x, b.y, a.z), 0).xyz;
+    let c110 = textureLoad(normals, vec3<i32>(b.x, b.y, a.z), 0).xyz;
+    let c001 = textureLoad(normals, vec3<i32>(a.x, a.y, b.z), 0).xyz;
+    let c101 = textureLoad(normals, vec3<i32>(b.x, a.y, b.z), 0).xyz;
+    let c011 = textureLoad(normals, vec3<i32>(a.x, b.y, b.z), 0).xyz;
+    let c111 = textureLoad(normals, vec3<i32>(b.x, b.y, b.z), 0).xyz;
+    let x00 = mix(c000, c100, w.x);
+    let x10 = mix(c010, c110, w.x);
+    let x01 = mix(c001, c101, w.x);
+    let x11 = mix(c011, c111, w.x);
+    return mix(mix(x00, x10, w.y), mix(x01, x11, w.y), w.z);
+}
+
+// Central differences one voxel apart, in world units; texel axes are (z, y, x).
+fn gradient(u: vec3<f32>) -> vec3<f32> {
+    let gx = trilinear(u + vec3<f32>(0.0, 0.0, 1.0)) - trilinear(u - vec3<f32>(0.0, 0.0, 1.0));
+    let gy = trilinear(u + vec3<f32>(0.0, 1.0, 0.0)) - trilinear(u - vec3<f32>(0.0, 1.0, 0.0));
+    let gz = trilinear(u + vec3<f32>(1.0, 0.0, 0.0)) - trilinear(u - vec3<f32>(1.0, 0.0, 0.0));
+    return vec3<f32>(gx, gy, gz) * P.inv_two_spacing.xyz;
+}
+
+fn eval_lut(v: f32) -> vec4<f32> {
+    let last = P.lut_size - 1u;
+    let x = clamp(v, 0.0, 1.0) * f32(last);
+    let i0 = min(u32(floor(x)), last);
+    let i1 = min(i0 + 1u, last);
+    return mix(lut[i0], lut[i1], x - f32(i0));
+}
+
+fn one_minus_exp_neg(x: f32) -> f32 {
+    if (x < 1e-3) {
+        return x * (1.0 - x * (0.5 - x * (1.0 / 6.0)));
+    }
+    return 1.0 - exp(-x);
+}
+
+fn corrected_alpha(a: f32, len_over_ref: f32) -> f32 {
+    if (POWER_CORRECTION) {
+        if (a >= 1.0) {
+            return 1.0;
+        }
+        // -ln(1 - a), accurate for small a as well.
+        var sigma: f32;
+        if (a < 1e-3) {
+            sigma = a * (1.0 + a * (0.5 + a * (1.0 / 3.0)));
+        } else {
+            sigma = -log(1.0 - a);
+        }
+        return one_minus_exp_neg(sigma * len_over_ref);
+    }
+    return one_minus_exp_neg(a * len_over_ref);
+}
+
+fn light_intensity(n: vec3<f32>, p: vec3<f32>) -> f32 {
+    let ln = length(n);
+    if (!(ln > 0.0)) {
+        return P.ambient;
+    }
+    var l: vec3<f32>;
+    if (POINT_LIGHT) {
+        let d = p - P.light_pos.xyz;
+        let dl = length(d);
+        if (!(dl > 0.0)) {
+            return P.ambient;
+        }
+        l = d / dl;
+    } else {
+        if (P.light_valid == 0u) {
+            return P.ambient;
+        }
+        l = P.light_dir.xyz;
+    }
+    return P.ambient + P.diffuse * max(dot(n / ln, l), 0.0);
+}
+
+@compute @workgroup_size(8, 8, 1)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if (gid.x >= P.width || gid.y >= P.height) {
+        return;
+    }
+    // Row 0 is the bottom of the image, as pyvr returns it.
+    let idx = gid.y * P.width + gid.x;
+    let ndc = vec2<f32>(
+        2.0 * (f32(gid.x) + 0.5) / f32(P.width) - 1.0,
+        2.0 * (f32(gid.y) + 0.5) / f32(P.height) - 1.0,
+    );
+    let o = P.cam_pos.xyz;
+    let d = normalize(P.cam_fwd.xyz + ndc.x * P.cam_right.xyz + ndc.y * P.cam_up.xyz);
+    let ext = P.extent.xyz;
+
+    // Slab test; a zero direction component never divides.
+    var t0 = -3.0e38;
+    var t1 = 3.0e38;
+    var hit = true;
+    for (var a = 0; a < 3; a++) {
+        if (d[a] == 0.0) {
+            if (o[a] < 0.0 || o[a] > ext[a]) {
+                hit = false;
+            }
+        } else {
+            let inv = 1.0 / d[a];
+            let ta = (0.0 - o[a]) * inv;
+            let tb = (ext[a] - o[a]) * inv;
+            t0 = max(t0, min(ta, tb));
+            t1 = min(t1, max(ta, tb));
+        }
+    }
+    if (!hit || t0 > t1 || t1 <= 0.0) {
+        out_rgba[idx] = vec4<f32>(0.0);
+        return;
+    }
+    t0 = max(t0, 0.0);
+    let chord = t1 - t0;
+    let needed_f = ceil(chord / P.step_size);
+    let needed = u32(min(needed_f, 4.0e9));
+    let n = min(needed, P.max_steps);
+
+    var color = vec3<f32>(0.0);
+    var trans = 1.0;
+    var stopped = false;
+    for (var i = 0u; i < n; i++) {
+        let s0 = t0 + f32(i) * P.step_size;
+        let seg = min(P.step_size, t1 - s0);
+        if (seg <= 0.0) {
+            break;
+        }
+        let p = o + d * (s0 + 0.5 * seg);
+        let u = texel_coord(p * P.inv_extent.xyz);
+        let v = trilinear(u);
+        if (is_nan(v)) {
+            continue;
+        }
+        let rgba = eval_lut(v);
+        if (!(rgba.a > 0.0)) {
+            continue;
+        }
+        let alpha = corrected_alpha(rgba.a, seg * P.inv_ref);
+        var intensity = P.ambient;
+        if (SHADING == 1u) {
+            intensity = light_intensity(supplied_normal(u), p);
+        } else if (SHADING == 2u) {
+            intensity = light_intensity(gradient(u), p);
+        }
+        color += (trans * alpha * intensity) * rgba.rgb;
+        trans *= 1.0 - alpha;
+        if (EARLY_TERMINATION && 1.0 - trans >= P.threshold) {
+            stopped = true;
+            break;
+        }
+        // Below this nothing behind can show in 8 bits or even float; stop
+        // before transmittance sinks into denormals.
+        if (trans < 1e-30) {
+            trans = 0.0;
+            stopped = true;
+            break;
+        }
+    }
+    if (!stopped && n < needed) {
+        atomicMax(&truncated_needed, needed);
+    }
+    out_rgba[idx] = vec4<f32>(color, 1.0 - trans);
+}

@@ -1,0 +1,285 @@
+//! Render configuration: pyvr 0.4.1's presets, validation rules and cost
+//! estimates, plus the opacity-correction form (an extension).
+
+use std::fmt;
+
+/// How a transfer-function opacity is turned into the opacity of one step.
+///
+/// Both are Beer–Lambert with `sigma * ref = alpha` (exponential, pyvr 0.3.3)
+/// or `sigma * ref = -ln(1 - alpha)` (power, the VTK/OpenGL convention).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum OpacityCorrection {
+    /// `a' = 1 - exp(-a * len / ref)`
+    Exponential,
+    /// `a' = 1 - (1 - a)^(len / ref)`
+    Power,
+}
+
+impl OpacityCorrection {
+    pub fn name(self) -> &'static str {
+        match self {
+            OpacityCorrection::Exponential => "exponential",
+            OpacityCorrection::Power => "power",
+        }
+    }
+
+    pub fn parse(s: &str) -> Result<Self, ConfigError> {
+        match s {
+            "exponential" => Ok(OpacityCorrection::Exponential),
+            "power" => Ok(OpacityCorrection::Power),
+            other => Err(ConfigError(format!(
+                "opacity_correction must be 'exponential' or 'power', got '{other}'"
+            ))),
+        }
+    }
+}
+
+/// A validation failure; the message is pyvr's where pyvr had one.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ConfigError(pub String);
+
+impl fmt::Display for ConfigError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for ConfigError {}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RenderConfig {
+    /// World units along the unit-length ray.
+    pub step_size: f64,
+    pub max_steps: i64,
+    pub early_ray_termination: bool,
+    /// Rays stop once accumulated opacity reaches this (when termination is on).
+    pub opacity_threshold: f64,
+    /// The step length at which a transfer function's opacity is defined.
+    pub reference_step_size: f64,
+    pub opacity_correction: OpacityCorrection,
+}
+
+/// The five quality presets, in order from fastest to slowest.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Preset {
+    Preview,
+    Fast,
+    Balanced,
+    HighQuality,
+    UltraQuality,
+}
+
+impl Preset {
+    pub const ALL: [Preset; 5] = [
+        Preset::Preview,
+        Preset::Fast,
+        Preset::Balanced,
+        Preset::HighQuality,
+        Preset::UltraQuality,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Preset::Preview => "preview",
+            Preset::Fast => "fast",
+            Preset::Balanced => "balanced",
+            Preset::HighQuality => "high_quality",
+            Preset::UltraQuality => "ultra_quality",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Option<Preset> {
+        Preset::ALL.into_iter().find(|p| p.name() == name)
+    }
+}
+
+pub const DEFAULT_REFERENCE_STEP: f64 = 0.01;
+/// pyvr's estimate divides the unit cube's diagonal (sqrt 3, written 1.732) by the step.
+const UNIT_CUBE_DIAGONAL: f64 = 1.732;
+
+impl Default for RenderConfig {
+    fn default() -> Self {
+        RenderConfig::preset(Preset::Balanced)
+    }
+}
+
+impl RenderConfig {
+    pub fn preset(p: Preset) -> Self {
+        let (step_size, max_steps, early, threshold) = match p {
+            Preset::Preview => (0.05, 50, true, 0.80),
+            Preset::Fast => (0.02, 100, true, 0.90),
+            Preset::Balanced => (0.01, 500, true, 0.95),
+            Preset::HighQuality => (0.005, 1000, true, 0.98),
+            Preset::UltraQuality => (0.001, 2000, false, 1.0),
+        };
+        RenderConfig {
+            step_size,
+            max_steps,
+            early_ray_termination: early,
+            opacity_threshold: threshold,
+            reference_step_size: DEFAULT_REFERENCE_STEP,
+            opacity_correction: OpacityCorrection::Exponential,
+        }
+    }
+
+    /// Checks pyvr's rules in pyvr's order, then the ones pyvr lacked
+    /// (finite values, positive reference step). Returns the warnings to emit.
+    pub fn validate(&self) -> Result<Vec<String>, ConfigError> {
+        let mut warnings = Vec::new();
+        if !self.step_size.is_finite() {
+            return Err(ConfigError(format!(
+                "step_size must be a finite number, got {}",
+                self.step_size
+            )));
+        }
+        if self.step_size <= 0.0 {
+            return Err(ConfigError("step_size must be positive".into()));
+        }
+        if self.step_size > 1.0 {
+            warnings.push(format!(
+                "step_size {} is very large and may produce poor quality",
+                py_float(self.step_size)
+            ));
+        }
+        if self.max_steps < 1 {
+            return Err(ConfigError("max_steps must be at least 1".into()));
+        }
+        if self.max_steps > 10000 {
+            warnings.push(format!(
+                "max_steps {} is very large and may be slow",
+                self.max_steps
+            ));
+        }
+        if !(0.0..=1.0).contains(&self.opacity_threshold) {
+            return Err(ConfigError(
+                "opacity_threshold must be between 0.0 and 1.0".into(),
+            ));
+        }
+        if !self.reference_step_size.is_finite() || self.reference_step_size <= 0.0 {
+            return Err(ConfigError(format!(
+                "reference_step_size must be a positive finite number, got {}",
+                py_float(self.reference_step_size)
+            )));
+        }
+        Ok(warnings)
+    }
+
+    /// pyvr: `min(int(1.732 / step_size), max_steps)`.
+    pub fn estimate_samples_per_ray(&self) -> i64 {
+        let n = (UNIT_CUBE_DIAGONAL / self.step_size).trunc();
+        let n = if n.is_finite() && n < i64::MAX as f64 { n as i64 } else { i64::MAX };
+        n.min(self.max_steps)
+    }
+
+    /// Own estimate over the balanced preset's (173).
+    pub fn estimate_render_time_relative(&self) -> f64 {
+        let base = RenderConfig::preset(Preset::Balanced).estimate_samples_per_ray();
+        self.estimate_samples_per_ray() as f64 / base as f64
+    }
+
+    /// Steps needed to cross a chord of `length` world units.
+    pub fn steps_for_length(&self, length: f64) -> u64 {
+        if length <= 0.0 {
+            return 0;
+        }
+        let n = (length / self.step_size).ceil();
+        if n >= u64::MAX as f64 { u64::MAX } else { n as u64 }
+    }
+}
+
+/// Python's `repr(float)` for the values configs hold: shortest round-trip
+/// digits with a trailing `.0` for integral values.
+pub fn py_float(v: f64) -> String {
+    if v.is_nan() {
+        return "nan".into();
+    }
+    if v.is_infinite() {
+        return if v > 0.0 { "inf".into() } else { "-inf".into() };
+    }
+    let s = format!("{v}");
+    if v.abs() >= 1e16 || (v != 0.0 && v.abs() < 1e-4) {
+        // Python switches to exponent notation here; Rust's {:e} is close enough
+        // but spells the exponent without sign padding, so build it by hand.
+        let e = format!("{v:e}");
+        let (mant, exp) = e.split_once('e').unwrap_or((&e, "0"));
+        let exp: i32 = exp.parse().unwrap_or(0);
+        let sign = if exp < 0 { '-' } else { '+' };
+        return format!("{mant}e{sign}{:02}", exp.abs());
+    }
+    if s.contains('.') { s } else { format!("{s}.0") }
+}
+
+impl fmt::Display for RenderConfig {
+    /// pyvr's repr, byte for byte.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "RenderConfig(step_size={}, max_steps={}, early_termination={}, ~{} samples/ray)",
+            py_float(self.step_size),
+            self.max_steps,
+            if self.early_ray_termination { "True" } else { "False" },
+            self.estimate_samples_per_ray()
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn preset_estimates_match_pyvr() {
+        let expected = [34, 86, 173, 346, 1732];
+        for (p, e) in Preset::ALL.iter().zip(expected) {
+            assert_eq!(RenderConfig::preset(*p).estimate_samples_per_ray(), e, "{p:?}");
+        }
+        let ultra = RenderConfig::preset(Preset::UltraQuality);
+        assert!((ultra.estimate_render_time_relative() - 1732.0 / 173.0).abs() < 1e-12);
+        assert_eq!(RenderConfig::default().estimate_render_time_relative(), 1.0);
+    }
+
+    #[test]
+    fn repr_matches_pyvr() {
+        let c = RenderConfig::preset(Preset::Fast);
+        assert_eq!(
+            c.to_string(),
+            "RenderConfig(step_size=0.02, max_steps=100, early_termination=True, ~86 samples/ray)"
+        );
+        let mut d = c;
+        d.step_size = 2.0;
+        assert!(d.to_string().starts_with("RenderConfig(step_size=2.0,"));
+        assert_eq!(py_float(1e-6), "1e-06");
+        assert_eq!(py_float(0.001), "0.001");
+    }
+
+    #[test]
+    fn validation_order_and_messages() {
+        let mut c = RenderConfig::default();
+        c.step_size = 0.0;
+        c.max_steps = 0;
+        assert_eq!(c.validate().unwrap_err().0, "step_size must be positive");
+        c.step_size = 0.01;
+        assert_eq!(c.validate().unwrap_err().0, "max_steps must be at least 1");
+        c.max_steps = 20000;
+        c.step_size = 2.0;
+        let w = c.validate().unwrap();
+        assert_eq!(w.len(), 2);
+        assert!(w[0].contains("step_size 2.0 is very large"));
+        c.opacity_threshold = 1.5;
+        assert!(c.validate().unwrap_err().0.contains("opacity_threshold"));
+        c.opacity_threshold = 0.5;
+        c.reference_step_size = 0.0;
+        assert!(c.validate().unwrap_err().0.contains("reference_step_size"));
+        c.reference_step_size = 0.01;
+        c.step_size = f64::NAN;
+        assert!(c.validate().unwrap_err().0.contains("finite"));
+    }
+
+    #[test]
+    fn steps_for_length_rounds_up() {
+        let c = RenderConfig::preset(Preset::Preview);
+        assert_eq!(c.steps_for_length(3.4641), 70);
+        assert_eq!(c.steps_for_length(0.0), 0);
+        assert_eq!(c.steps_for_length(0.05), 1);
+    }
+}

@@ -1,0 +1,123 @@
+//! One wgpu device per process, shared by every renderer: adapter choice,
+//! the limits and features actually present, and error capture.
+
+use std::sync::{Arc, Mutex, OnceLock};
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct GpuError(pub String);
+
+impl std::fmt::Display for GpuError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for GpuError {}
+
+pub struct GpuContext {
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub adapter_info: wgpu::AdapterInfo,
+    pub limits: wgpu::Limits,
+    pub features: wgpu::Features,
+    /// Validation errors the device reported outside an error scope.
+    pub(crate) uncaptured: Arc<Mutex<Vec<String>>>,
+}
+
+static CONTEXT: OnceLock<Result<Arc<GpuContext>, GpuError>> = OnceLock::new();
+
+/// Which backends to try. `PYVR_BACKEND` (vulkan, metal, dx12, gl) or wgpu's
+/// `WGPU_BACKEND` override; otherwise the native APIs only. GL is left out
+/// unless asked for, because creating a GL instance takes over the thread's
+/// EGL context (moderngl's, in the same process).
+fn requested_backends() -> Result<wgpu::Backends, GpuError> {
+    if let Ok(v) = std::env::var("PYVR_BACKEND") {
+        return match v.to_ascii_lowercase().as_str() {
+            "vulkan" => Ok(wgpu::Backends::VULKAN),
+            "metal" => Ok(wgpu::Backends::METAL),
+            "dx12" => Ok(wgpu::Backends::DX12),
+            "gl" | "gles" => Ok(wgpu::Backends::GL),
+            other => Err(GpuError(format!(
+                "PYVR_BACKEND must be one of vulkan, metal, dx12, gl; got '{other}'"
+            ))),
+        };
+    }
+    Ok(wgpu::Backends::from_env().unwrap_or(wgpu::Backends::PRIMARY))
+}
+
+impl GpuContext {
+    /// The process-wide context, created on first use.
+    pub fn get() -> Result<Arc<GpuContext>, GpuError> {
+        CONTEXT.get_or_init(|| GpuContext::create().map(Arc::new)).clone()
+    }
+
+    fn create() -> Result<GpuContext, GpuError> {
+        let backends = requested_backends()?;
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+        desc.backends = backends;
+        let instance = wgpu::Instance::new(desc);
+        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+            power_preference: wgpu::PowerPreference::HighPerformance,
+            force_fallback_adapter: false,
+            compatible_surface: None,
+            // Bucketing hides real limits (for fingerprinting on the web); we
+            // want the adapter's true 3-D texture and buffer sizes.
+            apply_limit_buckets: false,
+        }))
+        .map_err(|e| {
+            GpuError(format!(
+                "no GPU adapter found for backends {backends:?} ({e}). On a machine without a \
+                 GPU install Mesa's software Vulkan driver (Debian/Ubuntu: apt-get install \
+                 mesa-vulkan-drivers), or set PYVR_BACKEND"
+            ))
+        })?;
+        let adapter_info = adapter.get_info();
+        // Ask for what the adapter really has: the defaults cap 3-D textures at
+        // 2048 and storage buffers at 128 MiB, well below lavapipe and real GPUs.
+        let limits = adapter.limits();
+        let wanted = wgpu::Features::TEXTURE_FORMAT_16BIT_NORM;
+        let features = adapter.features() & wanted;
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("pyvr"),
+            required_features: features,
+            required_limits: limits.clone(),
+            experimental_features: wgpu::ExperimentalFeatures::disabled(),
+            memory_hints: wgpu::MemoryHints::Performance,
+            trace: wgpu::Trace::Off,
+        }))
+        .map_err(|e| GpuError(format!("could not open the GPU device: {e}")))?;
+        let uncaptured = Arc::new(Mutex::new(Vec::new()));
+        let sink = uncaptured.clone();
+        // The default handler panics; a panic must never reach Python.
+        device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+            if let Ok(mut v) = sink.lock() {
+                v.push(e.to_string());
+            }
+        }));
+        Ok(GpuContext { device, queue, adapter_info, limits, features, uncaptured })
+    }
+
+    /// Runs `f` inside validation and out-of-memory error scopes and turns
+    /// what they catch into an error.
+    pub fn scoped<T>(&self, what: &str, f: impl FnOnce() -> T) -> Result<T, GpuError> {
+        let oom = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let val = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let out = f();
+        let v = pollster::block_on(val.pop());
+        let m = pollster::block_on(oom.pop());
+        if let Some(e) = v.or(m) {
+            return Err(GpuError(format!("{what} failed on the GPU: {e}")));
+        }
+        if let Ok(mut u) = self.uncaptured.lock() {
+            if let Some(e) = u.drain(..).next() {
+                return Err(GpuError(format!("{what} failed on the GPU: {e}")));
+            }
+        }
+        Ok(out)
+    }
+
+    pub fn describe(&self) -> String {
+        let i = &self.adapter_info;
+        format!("{} ({:?}, {:?}, driver {} {})", i.name, i.backend, i.device_type, i.driver, i.driver_info)
+    }
+}

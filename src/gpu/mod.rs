@@ -1,0 +1,10 @@
+//! The wgpu side: device and limits (`context`), shader variants
+//! (`pipeline`), and the per-renderer resources and frame (`renderer`).
+
+pub mod context;
+mod half;
+pub mod pipeline;
+pub mod renderer;
+
+pub use context::{GpuContext, GpuError};
+pub use renderer::{FrameStats, GpuRenderer};

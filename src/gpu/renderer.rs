@@ -1,0 +1,508 @@
+//! A renderer's GPU resources and its frame. Resources live as long as the
+//! renderer and are replaced only when their input changes: a camera, light
+//! or config change rewrites one 208-byte uniform block and nothing else.
+
+use super::context::{GpuContext, GpuError};
+use super::half::f32_to_f16;
+use super::pipeline::{Pipelines, Variant, WORKGROUP};
+use crate::config::RenderConfig;
+use crate::scene::{Bounds, Camera, Light, LightKind, Shading};
+use crate::volume::{sanitize, VolumeView, Voxels};
+use bytemuck::{Pod, Zeroable};
+use glam::DVec3;
+use std::sync::{Arc, OnceLock};
+use wgpu::util::DeviceExt;
+
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable, Debug, Default)]
+struct Params {
+    cam_pos: [f32; 4],
+    cam_fwd: [f32; 4],
+    cam_right: [f32; 4],
+    cam_up: [f32; 4],
+    extent: [f32; 4],
+    inv_extent: [f32; 4],
+    inv_two_spacing: [f32; 4],
+    light_pos: [f32; 4],
+    light_dir: [f32; 4],
+    step_size: f32,
+    inv_ref: f32,
+    ambient: f32,
+    diffuse: f32,
+    threshold: f32,
+    max_steps: u32,
+    width: u32,
+    height: u32,
+    lut_size: u32,
+    light_valid: u32,
+    _pad: [u32; 2],
+}
+
+fn v4(v: DVec3) -> [f32; 4] {
+    [v.x as f32, v.y as f32, v.z as f32, 0.0]
+}
+
+struct VolumeGpu {
+    _texture: wgpu::Texture,
+    view: wgpu::TextureView,
+    normals: Option<(wgpu::Texture, wgpu::TextureView)>,
+    dims: [usize; 3],
+    bounds: Bounds,
+    bytes: u64,
+}
+
+struct Output {
+    storage: wgpu::Buffer,
+    readback: wgpu::Buffer,
+}
+
+/// What one frame did, for tests and benchmarks.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FrameStats {
+    /// Largest step count a ray needed when `max_steps` cut it short; 0 if none.
+    pub truncated_needed: u32,
+    /// Bytes written to the GPU for this frame (uniforms only, unless a
+    /// volume, LUT or image size changed since the last frame).
+    pub uploaded_bytes: u64,
+}
+
+/// Counters over the renderer's life.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Counters {
+    pub frames: u64,
+    pub volume_uploads: u64,
+    pub lut_uploads: u64,
+    pub uploaded_bytes: u64,
+}
+
+pub struct GpuRenderer {
+    ctx: Arc<GpuContext>,
+    pipelines: Arc<Pipelines>,
+    width: u32,
+    height: u32,
+    uniform: wgpu::Buffer,
+    stats: wgpu::Buffer,
+    stats_readback: wgpu::Buffer,
+    dummy_normals: wgpu::TextureView,
+    volume: Option<VolumeGpu>,
+    lut: Option<(wgpu::Buffer, u32)>,
+    output: Option<Output>,
+    bind_group: Option<wgpu::BindGroup>,
+    pending_upload: u64,
+    pub counters: Counters,
+}
+
+static PIPELINES: OnceLock<Result<Arc<Pipelines>, GpuError>> = OnceLock::new();
+
+fn shared_pipelines(ctx: &GpuContext) -> Result<Arc<Pipelines>, GpuError> {
+    PIPELINES.get_or_init(|| Pipelines::new(ctx).map(Arc::new)).clone()
+}
+
+impl GpuRenderer {
+    pub fn new(width: u32, height: u32) -> Result<GpuRenderer, GpuError> {
+        let ctx = GpuContext::get()?;
+        let pipelines = shared_pipelines(&ctx)?;
+        let device = &ctx.device;
+        let (uniform, stats, stats_readback, dummy_normals) = ctx.scoped("allocating renderer buffers", || {
+            let uniform = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("params"),
+                size: std::mem::size_of::<Params>() as u64,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            let stats = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("stats"),
+                size: 4,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            let stats_readback = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("stats readback"),
+                size: 4,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            let dummy = device.create_texture(&wgpu::TextureDescriptor {
+                label: Some("no normals"),
+                size: wgpu::Extent3d { width: 1, height: 1, depth_or_array_layers: 1 },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D3,
+                format: wgpu::TextureFormat::Rgba16Float,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING,
+                view_formats: &[],
+            });
+            let view = dummy.create_view(&Default::default());
+            (uniform, stats, stats_readback, view)
+        })?;
+        let mut r = GpuRenderer {
+            ctx,
+            pipelines,
+            width: 1,
+            height: 1,
+            uniform,
+            stats,
+            stats_readback,
+            dummy_normals,
+            volume: None,
+            lut: None,
+            output: None,
+            bind_group: None,
+            pending_upload: 0,
+            counters: Counters::default(),
+        };
+        r.resize(width, height)?;
+        Ok(r)
+    }
+
+    pub fn context(&self) -> &GpuContext {
+        &self.ctx
+    }
+
+    pub fn size(&self) -> (u32, u32) {
+        (self.width, self.height)
+    }
+
+    /// Bytes the current volume (and normals) occupy on the GPU.
+    pub fn volume_bytes(&self) -> u64 {
+        self.volume.as_ref().map_or(0, |v| v.bytes)
+    }
+
+    pub fn cached_variants(&self) -> usize {
+        self.pipelines.cached_variants()
+    }
+
+    /// Checks an image size against the device's limits.
+    pub fn check_size(ctx: &GpuContext, width: u32, height: u32) -> Result<(), GpuError> {
+        if width == 0 || height == 0 {
+            return Err(GpuError(format!("width and height must be positive, got {width}x{height}")));
+        }
+        let bytes = width as u64 * height as u64 * 16;
+        let max_binding = ctx.limits.max_storage_buffer_binding_size as u64;
+        let max_buffer = ctx.limits.max_buffer_size;
+        let limit = max_binding.min(max_buffer);
+        if bytes > limit {
+            return Err(GpuError(format!(
+                "image {width}x{height} needs {bytes} bytes of output, over this device's limit of {limit} \
+                 bytes (at most {} pixels)",
+                limit / 16
+            )));
+        }
+        let groups = ctx.limits.max_compute_workgroups_per_dimension as u64 * WORKGROUP as u64;
+        if width as u64 > groups || height as u64 > groups {
+            return Err(GpuError(format!(
+                "image {width}x{height} exceeds this device's limit of {groups} pixels per side"
+            )));
+        }
+        Ok(())
+    }
+
+    pub fn resize(&mut self, width: u32, height: u32) -> Result<(), GpuError> {
+        Self::check_size(&self.ctx, width, height)?;
+        if self.output.is_some() && (width, height) == (self.width, self.height) {
+            return Ok(());
+        }
+        let size = width as u64 * height as u64 * 16;
+        let device = &self.ctx.device;
+        let out = self.ctx.scoped("allocating the output image", || Output {
+            storage: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("image"),
+                size,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            }),
+            readback: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("image readback"),
+                size,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
+        })?;
+        self.output = Some(out);
+        self.width = width;
+        self.height = height;
+        self.bind_group = None;
+        Ok(())
+    }
+
+    /// Uploads a volume (and its normals), replacing the previous one.
+    pub fn set_volume(&mut self, vol: &VolumeView) -> Result<(), GpuError> {
+        let ctx = self.ctx.clone();
+        let max3d = ctx.limits.max_texture_dimension_3d as usize;
+        if let Some(&big) = vol.dims.iter().find(|&&d| d > max3d) {
+            return Err(GpuError(format!(
+                "volume shape {:?} has an axis of {big} voxels, over this device's 3-D texture limit \
+                 of {max3d}",
+                vol.dims
+            )));
+        }
+        let [s0, s1, s2] = vol.dims;
+        // numpy's last axis is the fastest: it becomes the texture's x.
+        let size = wgpu::Extent3d { width: s2 as u32, height: s1 as u32, depth_or_array_layers: s0 as u32 };
+        let unorm16 = ctx.features.contains(wgpu::Features::TEXTURE_FORMAT_16BIT_NORM);
+        let converted: Vec<u8>;
+        let (format, bytes, bpp): (wgpu::TextureFormat, &[u8], u32) = match vol.voxels {
+            Voxels::U8(v) => (wgpu::TextureFormat::R8Unorm, v, 1),
+            Voxels::U16(v) if unorm16 => (wgpu::TextureFormat::R16Unorm, bytemuck::cast_slice(v), 2),
+            Voxels::U16(v) => {
+                let f: Vec<f32> = v.iter().map(|&x| x as f32 / 65535.0).collect();
+                converted = bytemuck::cast_slice(&f).to_vec();
+                (wgpu::TextureFormat::R32Float, &converted, 4)
+            }
+            Voxels::F32(v) => {
+                if v.iter().any(|x| x.is_infinite()) {
+                    let f: Vec<f32> = v.iter().map(|&x| sanitize(x)).collect();
+                    converted = bytemuck::cast_slice(&f).to_vec();
+                    (wgpu::TextureFormat::R32Float, &converted, 4)
+                } else {
+                    (wgpu::TextureFormat::R32Float, bytemuck::cast_slice(v), 4)
+                }
+            }
+        };
+        let device = &ctx.device;
+        let queue = &ctx.queue;
+        let make = |label: &str, format, data: &[u8], bpp: u32| {
+            let tex = device.create_texture_with_data(
+                queue,
+                &wgpu::TextureDescriptor {
+                    label: Some(label),
+                    size,
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D3,
+                    format,
+                    usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+                    view_formats: &[],
+                },
+                wgpu::util::TextureDataOrder::LayerMajor,
+                data,
+            );
+            debug_assert_eq!(data.len() as u64, size.width as u64 * size.height as u64 * size.depth_or_array_layers as u64 * bpp as u64);
+            let view = tex.create_view(&Default::default());
+            (tex, view)
+        };
+        let (texture, view) = ctx.scoped("uploading the volume", || make("volume", format, bytes, bpp))?;
+        let mut total = bytes.len() as u64;
+        let normals = match vol.normals {
+            None => None,
+            Some(n) => {
+                let mut packed = Vec::with_capacity(n.len() / 3 * 4);
+                for c in n.chunks_exact(3) {
+                    packed.extend_from_slice(&[f32_to_f16(c[0]), f32_to_f16(c[1]), f32_to_f16(c[2]), 0]);
+                }
+                let data: &[u8] = bytemuck::cast_slice(&packed);
+                total += data.len() as u64;
+                Some(ctx.scoped("uploading the normals", || make("normals", wgpu::TextureFormat::Rgba16Float, data, 8))?)
+            }
+        };
+        self.volume = Some(VolumeGpu { _texture: texture, view, normals, dims: vol.dims, bounds: vol.bounds, bytes: total });
+        self.bind_group = None;
+        self.pending_upload += total;
+        self.counters.volume_uploads += 1;
+        Ok(())
+    }
+
+    pub fn has_volume(&self) -> bool {
+        self.volume.is_some()
+    }
+
+    /// Changes only the world box of the loaded volume (no re-upload).
+    pub fn set_bounds(&mut self, bounds: Bounds) {
+        if let Some(v) = self.volume.as_mut() {
+            v.bounds = bounds;
+        }
+    }
+
+    /// Uploads an RGBA lookup table (entries at scalars `m / (M - 1)`).
+    pub fn set_lut(&mut self, lut: &[[f32; 4]]) -> Result<(), GpuError> {
+        if lut.is_empty() {
+            return Err(GpuError("the transfer-function table must have at least one entry".into()));
+        }
+        let bytes: &[u8] = bytemuck::cast_slice(lut);
+        let max = self.ctx.limits.max_storage_buffer_binding_size as usize;
+        if bytes.len() > max {
+            return Err(GpuError(format!(
+                "transfer-function table of {} entries exceeds the device's limit of {} entries",
+                lut.len(),
+                max / 16
+            )));
+        }
+        let same_size = self.lut.as_ref().is_some_and(|(_, n)| *n as usize == lut.len());
+        if same_size {
+            let (buf, _) = self.lut.as_ref().expect("checked above");
+            self.ctx.queue.write_buffer(buf, 0, bytes);
+        } else {
+            let device = &self.ctx.device;
+            let buf = self.ctx.scoped("uploading the transfer function", || {
+                device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some("lut"),
+                    contents: bytes,
+                    usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                })
+            })?;
+            self.lut = Some((buf, lut.len() as u32));
+            self.bind_group = None;
+        }
+        self.pending_upload += bytes.len() as u64;
+        self.counters.lut_uploads += 1;
+        Ok(())
+    }
+
+    pub fn has_lut(&self) -> bool {
+        self.lut.is_some()
+    }
+
+    fn params(&self, vol: &VolumeGpu, camera: &Camera, light: &Light, cfg: &RenderConfig) -> Result<Params, GpuError> {
+        let basis = camera.basis(self.width, self.height).map_err(|e| GpuError(e.0))?;
+        let ext = vol.bounds.extent();
+        let spacing = ext / DVec3::new(vol.dims[0] as f64, vol.dims[1] as f64, vol.dims[2] as f64);
+        let light_dir = (light.target - light.position).normalize_or_zero();
+        Ok(Params {
+            cam_pos: v4(basis.origin - vol.bounds.min),
+            cam_fwd: v4(basis.forward),
+            cam_right: v4(basis.right),
+            cam_up: v4(basis.up),
+            extent: v4(ext),
+            inv_extent: v4(1.0 / ext),
+            inv_two_spacing: v4(0.5 / spacing),
+            light_pos: v4(light.position - vol.bounds.min),
+            light_dir: v4(light_dir),
+            step_size: cfg.step_size as f32,
+            inv_ref: (1.0 / cfg.reference_step_size) as f32,
+            ambient: light.ambient as f32,
+            diffuse: light.diffuse as f32,
+            threshold: cfg.opacity_threshold as f32,
+            max_steps: cfg.max_steps.clamp(0, u32::MAX as i64) as u32,
+            width: self.width,
+            height: self.height,
+            lut_size: self.lut.as_ref().map_or(1, |(_, n)| *n),
+            light_valid: (light.kind == LightKind::Directional && light_dir != DVec3::ZERO) as u32,
+            _pad: [0; 2],
+        })
+    }
+
+    /// Renders into `out` (width * height * 4 floats: premultiplied RGBA,
+    /// row 0 at the bottom).
+    pub fn render_into(
+        &mut self,
+        camera: &Camera,
+        light: &Light,
+        cfg: &RenderConfig,
+        out: &mut [f32],
+    ) -> Result<FrameStats, GpuError> {
+        let n = self.width as usize * self.height as usize * 4;
+        if out.len() != n {
+            return Err(GpuError(format!("output slice has {} floats, expected {n}", out.len())));
+        }
+        let vol = self.volume.as_ref().ok_or_else(|| GpuError("no volume loaded: call load_volume() first".into()))?;
+        if self.lut.is_none() {
+            return Err(GpuError("no transfer function set: call set_transfer_functions() first".into()));
+        }
+        cfg.validate().map_err(|e| GpuError(e.0))?;
+        let params = self.params(vol, camera, light, cfg)?;
+        let shading = Shading::choose(light, vol.normals.is_some());
+        let variant = Variant::new(shading, light.kind, cfg.early_ray_termination, cfg.opacity_correction);
+        let pipeline = self.pipelines.get(&self.ctx, variant)?;
+        let ctx = self.ctx.clone();
+        if self.bind_group.is_none() {
+            let output = self.output.as_ref().expect("resize() always leaves an output");
+            let (lut, _) = self.lut.as_ref().expect("checked above");
+            let normals = vol.normals.as_ref().map_or(&self.dummy_normals, |(_, v)| v);
+            let bg = ctx.scoped("binding frame resources", || {
+                ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("raymarch"),
+                    layout: &self.pipelines.layout,
+                    entries: &[
+                        wgpu::BindGroupEntry { binding: 0, resource: self.uniform.as_entire_binding() },
+                        wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&vol.view) },
+                        wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(normals) },
+                        wgpu::BindGroupEntry { binding: 3, resource: lut.as_entire_binding() },
+                        wgpu::BindGroupEntry { binding: 4, resource: output.storage.as_entire_binding() },
+                        wgpu::BindGroupEntry { binding: 5, resource: self.stats.as_entire_binding() },
+                    ],
+                })
+            })?;
+            self.bind_group = Some(bg);
+        }
+        let bind_group = self.bind_group.as_ref().expect("set above");
+        let output = self.output.as_ref().expect("resize() always leaves an output");
+        let queue = &ctx.queue;
+        queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&params));
+        queue.write_buffer(&self.stats, 0, &[0u8; 4]);
+        let uploaded = self.pending_upload + std::mem::size_of::<Params>() as u64 + 4;
+        self.pending_upload = 0;
+
+        let bytes = n as u64 * 4;
+        let result = ctx.scoped("rendering", || {
+            let mut enc = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
+            {
+                let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("raymarch"), timestamp_writes: None });
+                pass.set_pipeline(&pipeline);
+                pass.set_bind_group(0, bind_group, &[]);
+                pass.dispatch_workgroups(self.width.div_ceil(WORKGROUP), self.height.div_ceil(WORKGROUP), 1);
+            }
+            enc.copy_buffer_to_buffer(&output.storage, 0, &output.readback, 0, bytes);
+            enc.copy_buffer_to_buffer(&self.stats, 0, &self.stats_readback, 0, 4);
+            queue.submit([enc.finish()]);
+        });
+        result?;
+        let image = output.readback.slice(..);
+        let stat = self.stats_readback.slice(..);
+        let (tx, rx) = std::sync::mpsc::channel();
+        let tx2 = tx.clone();
+        image.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+        stat.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx2.send(r);
+        });
+        ctx.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| GpuError(format!("waiting for the GPU failed: {e}")))?;
+        for _ in 0..2 {
+            rx.recv()
+                .map_err(|_| GpuError("the GPU dropped a readback".into()))?
+                .map_err(|e| GpuError(format!("reading the image back failed: {e}")))?;
+        }
+        {
+            let data = image
+                .get_mapped_range()
+                .map_err(|e| GpuError(format!("reading the image back failed: {e}")))?;
+            out.copy_from_slice(bytemuck::cast_slice(&data));
+        }
+        let truncated_needed = {
+            let data = stat
+                .get_mapped_range()
+                .map_err(|e| GpuError(format!("reading frame statistics failed: {e}")))?;
+            u32::from_le_bytes([data[0], data[1], data[2], data[3]])
+        };
+        output.readback.unmap();
+        self.stats_readback.unmap();
+        self.counters.frames += 1;
+        self.counters.uploaded_bytes += uploaded;
+        Ok(FrameStats { truncated_needed, uploaded_bytes: uploaded })
+    }
+
+    pub fn render(&mut self, camera: &Camera, light: &Light, cfg: &RenderConfig) -> Result<(Vec<f32>, FrameStats), GpuError> {
+        let mut out = vec![0.0f32; self.width as usize * self.height as usize * 4];
+        let stats = self.render_into(camera, light, cfg, &mut out)?;
+        Ok((out, stats))
+    }
+}
+
+/// Converts premultiplied float RGBA to 8-bit. `straight` divides colour by
+/// alpha (unassociated output); values are clamped to [0, 1] and rounded.
+pub fn to_u8(rgba: &[f32], straight: bool, out: &mut [u8]) {
+    let q = |v: f32| -> u8 {
+        let v = if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) };
+        (v * 255.0 + 0.5) as u8
+    };
+    for (px, o) in rgba.chunks_exact(4).zip(out.chunks_exact_mut(4)) {
+        let a = px[3];
+        let s = if straight && a > 0.0 { 1.0 / a } else { 1.0 };
+        o[0] = q(px[0] * s);
+        o[1] = q(px[1] * s);
+        o[2] = q(px[2] * s);
+        o[3] = q(a);
+    }
+}

@@ -1,0 +1,222 @@
+//! The ray integral in plain f64: the oracle the GPU path is tested against,
+//! and (with tiny steps) the converged image for accuracy measurements.
+//!
+//! Rule, shared with the shader: the ray's chord `[t0, t1]` through the box is
+//! cut into `ceil((t1 - t0) / step)` segments of length `step`, the last one
+//! shorter; each segment is sampled at its midpoint and contributes with its
+//! own length (Beer–Lambert opacity correction), front to back:
+//! `C += T * a * I * rgb`, `T *= 1 - a`.
+
+use crate::config::{OpacityCorrection, RenderConfig};
+use crate::scene::{Camera, Light, Shading};
+use crate::transfer::eval_lut;
+use crate::volume::VolumeView;
+use glam::DVec3;
+
+/// Everything one frame depends on.
+#[derive(Clone, Copy, Debug)]
+pub struct Frame<'a> {
+    pub volume: VolumeView<'a>,
+    /// RGBA entries at scalars `m / (M - 1)`.
+    pub lut: &'a [[f32; 4]],
+    pub camera: Camera,
+    pub light: Light,
+    pub config: RenderConfig,
+    pub width: u32,
+    pub height: u32,
+}
+
+/// One ray's result: premultiplied colour and opacity, and how many steps the
+/// ray would have needed when `max_steps` cut it short (else 0).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RayResult {
+    pub rgba: [f64; 4],
+    pub truncated_needed: u64,
+}
+
+/// `1 - exp(-x)` without cancellation for small `x`.
+#[inline]
+pub fn one_minus_exp_neg(x: f64) -> f64 {
+    -(-x).exp_m1()
+}
+
+/// Opacity of a segment of length `len` for transfer-function opacity `a`.
+#[inline]
+pub fn corrected_alpha(a: f64, len_over_ref: f64, form: OpacityCorrection) -> f64 {
+    if a <= 0.0 {
+        return 0.0;
+    }
+    match form {
+        OpacityCorrection::Exponential => one_minus_exp_neg(a * len_over_ref),
+        OpacityCorrection::Power => {
+            if a >= 1.0 {
+                1.0
+            } else {
+                one_minus_exp_neg(-(-a).ln_1p() * len_over_ref)
+            }
+        }
+    }
+}
+
+pub fn integrate_ray(frame: &Frame, origin: DVec3, dir: DVec3) -> RayResult {
+    let vol = &frame.volume;
+    let Some((t0, t1)) = vol.bounds.intersect(origin, dir) else {
+        return RayResult::default();
+    };
+    let cfg = &frame.config;
+    let step = cfg.step_size;
+    let needed = cfg.steps_for_length(t1 - t0);
+    let n = needed.min(cfg.max_steps.max(0) as u64);
+    let shading = Shading::choose(&frame.light, vol.normals.is_some());
+    let mut c = [0.0f64; 3];
+    let mut t = 1.0f64;
+    let mut stopped_early = false;
+    for i in 0..n {
+        let s0 = t0 + i as f64 * step;
+        let seg = step.min(t1 - s0);
+        if seg <= 0.0 {
+            break;
+        }
+        let p = origin + dir * (s0 + 0.5 * seg);
+        let q = vol.bounds.to_unit(p);
+        let v = vol.sample(q);
+        if v.is_nan() {
+            continue;
+        }
+        let rgba = eval_lut(frame.lut, v);
+        let a = corrected_alpha(rgba[3], seg / cfg.reference_step_size, cfg.opacity_correction);
+        if a <= 0.0 {
+            continue;
+        }
+        let normal = match shading {
+            Shading::AmbientOnly => None,
+            Shading::Normals => vol.normal(q),
+            Shading::Gradient => vol.gradient_normal(q),
+        };
+        let light = frame.light.intensity(normal, p);
+        let w = t * a * light;
+        for k in 0..3 {
+            c[k] += w * rgba[k];
+        }
+        t *= 1.0 - a;
+        if cfg.early_ray_termination && 1.0 - t >= cfg.opacity_threshold {
+            stopped_early = true;
+            break;
+        }
+        // The shader's rule: past this nothing behind can show.
+        if t < 1e-30 {
+            t = 0.0;
+            stopped_early = true;
+            break;
+        }
+    }
+    let truncated_needed = if !stopped_early && n < needed { needed } else { 0 };
+    RayResult { rgba: [c[0], c[1], c[2], 1.0 - t], truncated_needed }
+}
+
+/// Premultiplied RGBA per pixel, row 0 at the bottom; and the largest step
+/// count a truncated ray needed (0 when none was cut short).
+pub fn render(frame: &Frame) -> Result<(Vec<[f64; 4]>, u64), crate::scene::SceneError> {
+    let basis = frame.camera.basis(frame.width, frame.height)?;
+    let (w, h) = (frame.width, frame.height);
+    let mut out = vec![[0.0f64; 4]; w as usize * h as usize];
+    let threads = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
+    let rows_per = (h as usize).div_ceil(threads).max(1);
+    let mut worst = 0u64;
+    std::thread::scope(|s| {
+        let handles: Vec<_> = out
+            .chunks_mut(rows_per * w as usize)
+            .enumerate()
+            .map(|(chunk, pixels)| {
+                s.spawn(move || {
+                    let mut worst = 0u64;
+                    for (idx, px) in pixels.iter_mut().enumerate() {
+                        let row = (chunk * rows_per + idx / w as usize) as u32;
+                        let col = (idx % w as usize) as u32;
+                        let dir = basis.direction(col, row, w, h);
+                        let r = integrate_ray(frame, basis.origin, dir);
+                        *px = r.rgba;
+                        worst = worst.max(r.truncated_needed);
+                    }
+                    worst
+                })
+            })
+            .collect();
+        for hd in handles {
+            worst = worst.max(hd.join().unwrap_or(0));
+        }
+    });
+    Ok((out, worst))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{Bounds, LightKind};
+    use crate::volume::Voxels;
+
+    fn constant_frame<'a>(data: &'a [f32], lut: &'a [[f32; 4]], cfg: RenderConfig) -> Frame<'a> {
+        let vol = VolumeView::new([4, 4, 4], Voxels::F32(data), None, Bounds::default()).unwrap();
+        Frame {
+            volume: vol,
+            lut,
+            camera: Camera { position: DVec3::new(3.0, 0.0, 0.0), target: DVec3::ZERO, up: DVec3::Z, fov_y: 0.5 },
+            light: Light { ambient: 1.0, diffuse: 0.0, kind: LightKind::Directional, ..Light::default() },
+            config: cfg,
+            width: 1,
+            height: 1,
+        }
+    }
+
+    #[test]
+    fn homogeneous_cube_matches_beer_lambert_at_every_step() {
+        let data = [0.5f32; 64];
+        let lut = [[0.8f32, 0.4, 0.2, 0.3], [0.8, 0.4, 0.2, 0.3]];
+        for step in [0.05, 0.02, 0.01, 0.005, 0.001, 0.3, 0.77, 2.0] {
+            let mut cfg = RenderConfig { step_size: step, max_steps: 100_000, early_ray_termination: false, ..RenderConfig::default() };
+            cfg.opacity_threshold = 1.0;
+            let f = constant_frame(&data, &lut, cfg);
+            let r = integrate_ray(&f, DVec3::new(3.0, 0.0, 0.0), -DVec3::X);
+            let expect = 1.0 - (-(0.3f32 as f64) * 1.0 / 0.01).exp();
+            assert!((r.rgba[3] - expect).abs() < 1e-12, "step {step}: {} vs {expect}", r.rgba[3]);
+            assert!((r.rgba[0] - 0.8f32 as f64 * expect).abs() < 1e-12);
+            assert_eq!(r.truncated_needed, 0);
+        }
+    }
+
+    #[test]
+    fn power_form_matches_its_closed_form() {
+        let data = [0.5f32; 64];
+        let lut = [[1.0f32, 1.0, 1.0, 0.1]; 2];
+        let mut cfg = RenderConfig { step_size: 0.003, max_steps: 100_000, early_ray_termination: false, ..RenderConfig::default() };
+        cfg.opacity_correction = OpacityCorrection::Power;
+        let f = constant_frame(&data, &lut, cfg);
+        let r = integrate_ray(&f, DVec3::new(3.0, 0.0, 0.0), -DVec3::X);
+        let expect = 1.0 - (1.0 - 0.1f32 as f64).powf(1.0 / 0.01);
+        assert!((r.rgba[3] - expect).abs() < 1e-12);
+    }
+
+    #[test]
+    fn truncation_and_early_termination_are_reported() {
+        let data = [0.5f32; 64];
+        let lut = [[1.0f32, 1.0, 1.0, 0.001]; 2];
+        let cfg = RenderConfig { step_size: 0.1, max_steps: 3, ..RenderConfig::default() };
+        let f = constant_frame(&data, &lut, cfg);
+        let r = integrate_ray(&f, DVec3::new(3.0, 0.0, 0.0), -DVec3::X);
+        assert_eq!(r.truncated_needed, 10);
+        assert!((r.rgba[3] - (1.0 - (-0.001f32 as f64 * 30.0).exp())).abs() < 1e-12);
+        let lut = [[1.0f32, 1.0, 1.0, 1.0]; 2];
+        let f = constant_frame(&data, &lut, RenderConfig { max_steps: 3, step_size: 0.1, ..RenderConfig::default() });
+        let r = integrate_ray(&f, DVec3::new(3.0, 0.0, 0.0), -DVec3::X);
+        assert_eq!(r.truncated_needed, 0, "stopped by opacity, not by max_steps");
+        assert!(r.rgba[3] >= 0.95);
+    }
+
+    #[test]
+    fn small_x_is_not_lost() {
+        assert_eq!(one_minus_exp_neg(1e-20), 1e-20);
+        assert!((one_minus_exp_neg(1e-8) - (1e-8 - 0.5e-16)).abs() < 1e-23);
+        assert_eq!(corrected_alpha(0.0, 5.0, OpacityCorrection::Exponential), 0.0);
+        assert_eq!(corrected_alpha(1.0, 0.5, OpacityCorrection::Power), 1.0);
+    }
+}

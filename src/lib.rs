@@ -1,0 +1,15 @@
+//! pyvr's engine: direct volume rendering of 3-D scalar fields by ray
+//! marching in wgpu compute shaders, with an f64 CPU integrator as the oracle.
+//!
+//! Everything here is plain Rust; the Python binding lives in `python/` and
+//! is compiled only with the `python` feature.
+
+pub mod config;
+pub mod gpu;
+pub mod integrate;
+pub mod scene;
+pub mod transfer;
+pub mod volume;
+
+#[cfg(feature = "python")]
+mod python;
