@@ -1,0 +1,23 @@
+"""pyvr: direct volume rendering of 3-D numpy arrays.
+
+The API is pyvr 0.4.1's; the engine is Rust (``pyvr._core``) rendering with
+wgpu compute shaders. ``import pyvr`` needs numpy and scipy only; matplotlib,
+Pillow and moderngl are imported when a feature needs them.
+"""
+
+from . import camera, datasets, lighting, moderngl_renderer, transferfunctions, volume
+from .config import RenderConfig
+from .renderer import VolumeRenderer
+
+__version__ = "0.5.0"
+
+__all__ = [
+    "camera",
+    "datasets",
+    "lighting",
+    "moderngl_renderer",
+    "transferfunctions",
+    "volume",
+    "RenderConfig",
+    "VolumeRenderer",
+]

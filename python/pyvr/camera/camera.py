@@ -1,0 +1,199 @@
+"""The Camera: a target, spherical angles and a distance (pyvr 0.4.1)."""
+
+import json
+from dataclasses import dataclass, field
+from typing import Dict, Tuple
+
+import numpy as np
+
+from .._numbers import is_number, is_vec3
+
+
+class CameraError(Exception):
+    """Invalid camera angles (raised by ``validate_camera_angles``)."""
+
+
+def validate_camera_angles(azimuth, elevation, roll) -> None:
+    for name, v in (("azimuth", azimuth), ("elevation", elevation), ("roll", roll)):
+        if not is_number(v):
+            raise CameraError(f"{name} must be numeric, got {type(v)}")
+        if not np.isfinite(v):
+            raise CameraError(f"{name} must be finite, got {v}")
+
+
+def degrees_to_radians(**kwargs) -> Dict[str, float]:
+    return {k: np.radians(v) for k, v in kwargs.items()}
+
+
+def radians_to_degrees(**kwargs) -> Dict[str, float]:
+    return {k: np.degrees(v) for k, v in kwargs.items()}
+
+
+def _f32(v):
+    return np.array(v, dtype=np.float32)
+
+
+@dataclass
+class Camera:
+    """A perspective camera orbiting ``target``.
+
+    ``init_pos`` is the absolute position at zero angles (as pyvr: not
+    relative to target), ``init_up`` the world up (+Z), ``fov`` the vertical
+    field of view in radians. Angles are radians.
+    """
+
+    target: np.ndarray = field(default_factory=lambda: _f32([0.0, 0.0, 0.0]))
+    azimuth: float = 0.0
+    elevation: float = 0.0
+    roll: float = 0.0
+    distance: float = 3.0
+    init_pos: np.ndarray = field(default_factory=lambda: _f32([1.0, 0.0, 0.0]))
+    init_up: np.ndarray = field(default_factory=lambda: _f32([0.0, 0.0, 1.0]))
+    fov: float = np.pi / 4
+    near_plane: float = 0.1
+    far_plane: float = 100.0
+
+    def __post_init__(self):
+        self.validate()
+
+    def validate(self) -> None:
+        if not is_vec3(self.target):
+            raise ValueError("target must be a 3D numpy array")
+        for name in ("azimuth", "elevation", "roll"):
+            v = getattr(self, name)
+            if not is_number(v):
+                raise ValueError(f"{name} must be numeric")
+            if abs(v) > 4 * np.pi:
+                print(f"Warning: {name} = {v:.3f} rad ({np.degrees(v):.1f}°) is unusually large")
+        if not is_number(self.distance) or not self.distance > 0:
+            raise ValueError("distance must be positive")
+        if not is_vec3(self.init_pos):
+            raise ValueError("init_pos must be a 3D numpy array")
+        if not is_vec3(self.init_up):
+            raise ValueError("init_up must be a 3D numpy array")
+        if np.linalg.norm(self.init_pos - self.target) < 1e-9:
+            raise ValueError("init_pos must not be at the same location as target")
+        if np.linalg.norm(self.init_up) < 1e-9:
+            raise ValueError("init_up must not be the zero vector")
+        if not is_number(self.fov) or not (0 < self.fov < np.pi):
+            raise ValueError("fov must be between 0 and π radians")
+        if not is_number(self.near_plane) or not self.near_plane > 0:
+            raise ValueError("near_plane must be positive")
+        if not is_number(self.far_plane) or not self.far_plane > self.near_plane:
+            raise ValueError("far_plane must be greater than near_plane")
+
+    @classmethod
+    def from_spherical(cls, target, azimuth, elevation, roll, distance, **kwargs) -> "Camera":
+        return cls(target=target, azimuth=azimuth, elevation=elevation, roll=roll, distance=distance, **kwargs)
+
+    @classmethod
+    def front_view(cls, target=None, distance: float = 3.0) -> "Camera":
+        return cls(target=_f32([0, 0, 0]) if target is None else target, distance=distance)
+
+    @classmethod
+    def side_view(cls, target=None, distance: float = 3.0) -> "Camera":
+        return cls(target=_f32([0, 0, 0]) if target is None else target, azimuth=np.pi / 2, distance=distance)
+
+    @classmethod
+    def top_view(cls, target=None, distance: float = 3.0) -> "Camera":
+        return cls(target=_f32([0, 0, 0]) if target is None else target, elevation=np.pi / 2, distance=distance)
+
+    @classmethod
+    def isometric_view(cls, target=None, distance: float = 3.0) -> "Camera":
+        return cls(
+            target=_f32([0, 0, 0]) if target is None else target,
+            azimuth=np.pi / 4,
+            elevation=np.pi / 6,
+            distance=distance,
+        )
+
+    def to_dict(self) -> dict:
+        return {
+            "target": np.asarray(self.target).tolist(),
+            "azimuth": float(self.azimuth),
+            "elevation": float(self.elevation),
+            "roll": float(self.roll),
+            "distance": float(self.distance),
+            "init_pos": np.asarray(self.init_pos).tolist(),
+            "init_up": np.asarray(self.init_up).tolist(),
+            "fov": float(self.fov),
+            "near_plane": float(self.near_plane),
+            "far_plane": float(self.far_plane),
+        }
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "Camera":
+        return cls(
+            target=_f32(data["target"]),
+            azimuth=data["azimuth"],
+            elevation=data["elevation"],
+            roll=data["roll"],
+            distance=data["distance"],
+            init_pos=_f32(data["init_pos"]),
+            init_up=_f32(data["init_up"]),
+            fov=data.get("fov", np.pi / 4),
+            near_plane=data.get("near_plane", 0.1),
+            far_plane=data.get("far_plane", 100.0),
+        )
+
+    def save_to_file(self, filepath) -> None:
+        with open(filepath, "w") as f:
+            json.dump(self.to_dict(), f, indent=2)
+
+    @classmethod
+    def load_from_file(cls, filepath) -> "Camera":
+        with open(filepath) as f:
+            return cls.from_dict(json.load(f))
+
+    def copy(self) -> "Camera":
+        return Camera.from_dict(self.to_dict())
+
+    def get_camera_vectors(self) -> Tuple[np.ndarray, np.ndarray]:
+        """(position, up) as float64 arrays."""
+        from .control import get_camera_pos_from_params
+
+        return get_camera_pos_from_params(self)
+
+    def _basis(self):
+        p, up = self.get_camera_vectors()
+        f = np.asarray(self.target, dtype=np.float64) - p
+        f /= np.linalg.norm(f)
+        r = np.cross(f, up)
+        r /= np.linalg.norm(r)
+        u = np.cross(r, f)
+        return p, f, r, u
+
+    def get_view_matrix(self) -> np.ndarray:
+        """Look-at matrix, stored transposed (column-major) as in pyvr."""
+        p, f, r, u = self._basis()
+        m = np.zeros((4, 4), dtype=np.float64)
+        m[0:3, 0] = r
+        m[0:3, 1] = u
+        m[0:3, 2] = -f
+        m[3, 0] = -np.dot(r, p)
+        m[3, 1] = -np.dot(u, p)
+        m[3, 2] = np.dot(f, p)
+        m[3, 3] = 1.0
+        return m.astype(np.float32)
+
+    def get_projection_matrix(self, aspect_ratio: float) -> np.ndarray:
+        f = 1.0 / np.tan(self.fov / 2.0)
+        n, fa = self.near_plane, self.far_plane
+        return np.array(
+            [
+                [f / aspect_ratio, 0, 0, 0],
+                [0, f, 0, 0],
+                [0, 0, (fa + n) / (n - fa), 2 * fa * n / (n - fa)],
+                [0, 0, -1, 0],
+            ],
+            dtype=np.float32,
+        )
+
+    def __repr__(self) -> str:
+        return (
+            f"Camera(target={self.target}, "
+            f"azimuth={self.azimuth:.3f} rad ({np.degrees(self.azimuth):.1f}°), "
+            f"elevation={self.elevation:.3f} rad ({np.degrees(self.elevation):.1f}°), "
+            f"roll={self.roll:.3f} rad ({np.degrees(self.roll):.1f}°), "
+            f"distance={self.distance:.2f})"
+        )

@@ -1,0 +1,264 @@
+"""Camera placement from spherical parameters, paths and interactive control."""
+
+from typing import List, Optional, Tuple
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from .._numbers import is_number, is_vec3
+from .camera import Camera, validate_camera_angles
+
+
+def _map_to_sphere(x: float, y: float, radius: float = 1.0) -> np.ndarray:
+    """Project a 2-D point onto the virtual trackball (sphere + hyperbola)."""
+    d2 = x * x + y * y
+    r2 = radius * radius
+    if d2 <= r2 / 2.0:
+        z = np.sqrt(r2 - d2)
+    else:
+        z = (r2 / 2.0) / np.sqrt(d2)
+    v = np.array([x, y, z], dtype=np.float32)
+    return v / np.linalg.norm(v)
+
+
+def _camera_to_quaternion(camera: Camera) -> Rotation:
+    p, up = get_camera_pos_from_params(camera)
+    f = np.asarray(camera.target, dtype=np.float64) - p
+    f /= np.linalg.norm(f)
+    r = np.cross(f, up)
+    r /= np.linalg.norm(r)
+    u = np.cross(r, f)
+    return Rotation.from_matrix(np.column_stack([r, u, -f]))
+
+
+def _signed_angle(a, b, axis) -> float:
+    na, nb = np.linalg.norm(a), np.linalg.norm(b)
+    if na < 1e-9 or nb < 1e-9:
+        return 0.0
+    ang = float(np.arccos(np.clip(np.dot(a, b) / (na * nb), -1.0, 1.0)))
+    return ang if np.dot(np.cross(a, b), axis) >= 0 else -ang
+
+
+def _quaternion_to_camera_angles(rotation: Rotation, target, distance, init_pos, init_up) -> Tuple[float, float, float]:
+    m = rotation.as_matrix()
+    forward = -m[:, 2]
+    actual_up = m[:, 1]
+    target = np.asarray(target, dtype=np.float64)
+    position = target - forward * distance
+    n = np.asarray(init_up, dtype=np.float64)
+    n = n / np.linalg.norm(n)
+
+    def proj(v, axis):
+        return v - np.dot(v, axis) * axis
+
+    a = proj(np.asarray(init_pos, dtype=np.float64) - target, n)
+    b = proj(position - target, n)
+    azimuth = _signed_angle(a, b, n)
+    elevation = float(np.arcsin(np.clip(-np.dot(forward, n), -1.0, 1.0)))
+    tmp = Camera(
+        target=np.asarray(target, dtype=np.float32),
+        azimuth=azimuth,
+        elevation=elevation,
+        roll=0.0,
+        distance=float(distance),
+        init_pos=np.asarray(init_pos, dtype=np.float32),
+        init_up=np.asarray(init_up, dtype=np.float32),
+    )
+    expected_up = tmp.get_camera_vectors()[1]
+    roll = _signed_angle(proj(expected_up, forward), proj(actual_up, forward), forward)
+    return azimuth, elevation, roll
+
+
+def get_camera_pos(target, azimuth, elevation, roll, distance, init_pos=None, init_up=None):
+    """Camera position and up vector from spherical parameters (float64 arrays).
+
+    Rotations compose as in pyvr: roll about the view direction first, then
+    elevation, then azimuth about ``init_up``.
+    """
+    validate_camera_angles(azimuth, elevation, roll)
+    if not is_vec3(target):
+        raise ValueError("target must be a 3D numpy array")
+    if not is_number(distance) or not distance > 0:
+        raise ValueError("distance must be positive")
+    if init_pos is None:
+        init_pos = np.array([0.0, 0.0, distance], dtype=np.float32)
+    if init_up is None:
+        init_up = np.array([0.0, 1.0, 0.0], dtype=np.float32)
+    if not is_vec3(init_pos):
+        raise ValueError("init_pos must be a 3D numpy array")
+    if not is_vec3(init_up):
+        raise ValueError("init_up must be a 3D numpy array")
+    target = target.astype(np.float32)
+    init_pos = init_pos.astype(np.float32)
+    init_up = init_up.astype(np.float32)
+
+    rel = init_pos - target
+    norm = np.linalg.norm(rel)
+    if norm == 0:
+        raise ValueError("init_pos must not be the zero vector (relative to target)")
+    rel = rel / norm * distance
+    r_az = Rotation.from_rotvec(azimuth * init_up)
+    view_dir = -rel / np.linalg.norm(rel)
+    axis_el = np.cross(init_up, view_dir)
+    if np.linalg.norm(axis_el) < 1e-6:
+        fallback = np.array([1.0, 0.0, 0.0]) if abs(init_up[0]) < 0.9 else np.array([0.0, 0.0, 1.0])
+        axis_el = np.cross(init_up, fallback)
+    axis_el = axis_el / np.linalg.norm(axis_el)
+    r_el = Rotation.from_rotvec(elevation * axis_el)
+    r_roll = Rotation.from_rotvec(roll * view_dir)
+    r = r_az * r_el * r_roll
+    position = r.apply(rel) + target
+    up = r.apply(init_up)
+    return np.asarray(position, dtype=np.float64), np.asarray(up, dtype=np.float64)
+
+
+def get_camera_pos_from_params(params: Camera):
+    return get_camera_pos(
+        params.target,
+        params.azimuth,
+        params.elevation,
+        params.roll,
+        params.distance,
+        params.init_pos,
+        params.init_up,
+    )
+
+
+def _wrap(a: float) -> float:
+    return ((a + np.pi) % (2 * np.pi)) - np.pi
+
+
+class CameraPath:
+    """Keyframed camera animation with linear interpolation (shortest angles)."""
+
+    def __init__(self, keyframes: List[Camera]):
+        if len(keyframes) < 2:
+            raise ValueError("At least 2 keyframes are required for a camera path")
+        self.keyframes = keyframes
+        self.validate_keyframes()
+
+    def validate_keyframes(self) -> None:
+        for i, k in enumerate(self.keyframes):
+            if not isinstance(k, Camera):
+                raise ValueError(f"Keyframe {i} must be a Camera instance")
+            k.validate()
+
+    @staticmethod
+    def _lerp_vector(v1, v2, t):
+        return v1 + (v2 - v1) * t
+
+    @staticmethod
+    def _lerp_angle(a1, a2, t):
+        a1, a2 = _wrap(a1), _wrap(a2)
+        diff = _wrap(a2 - a1)
+        return a1 + diff * t
+
+    def interpolate(self, t: float) -> Camera:
+        if not (0.0 <= t <= 1.0):
+            raise ValueError("t must be between 0.0 and 1.0")
+        if t == 0.0:
+            return self.keyframes[0].copy()
+        if t == 1.0:
+            return self.keyframes[-1].copy()
+        n = len(self.keyframes) - 1
+        seg = min(int(t * n), n - 1)
+        lt = t * n - seg
+        a, b = self.keyframes[seg], self.keyframes[seg + 1]
+        lerp = self._lerp_vector
+        return Camera(
+            target=lerp(a.target, b.target, lt),
+            azimuth=self._lerp_angle(a.azimuth, b.azimuth, lt),
+            elevation=self._lerp_angle(a.elevation, b.elevation, lt),
+            roll=self._lerp_angle(a.roll, b.roll, lt),
+            distance=lerp(a.distance, b.distance, lt),
+            init_pos=lerp(a.init_pos, b.init_pos, lt),
+            init_up=lerp(a.init_up, b.init_up, lt),
+            fov=lerp(a.fov, b.fov, lt),
+            near_plane=lerp(a.near_plane, b.near_plane, lt),
+            far_plane=lerp(a.far_plane, b.far_plane, lt),
+        )
+
+    def generate_frames(self, n_frames: int) -> List[Camera]:
+        if n_frames < 1:
+            raise ValueError("n_frames must be at least 1")
+        if n_frames == 1:
+            return [self.keyframes[0].copy()]
+        return [self.interpolate(i / (n_frames - 1)) for i in range(n_frames)]
+
+
+class CameraController:
+    """Orbit, zoom, pan, roll and trackball control of a Camera (its own copy)."""
+
+    def __init__(self, initial_params: Optional[Camera] = None):
+        if initial_params is None:
+            initial_params = Camera.front_view()
+        self.params = initial_params.copy()
+
+    def orbit(self, delta_azimuth: float, delta_elevation: float) -> None:
+        self.params.azimuth += delta_azimuth
+        self.params.elevation = np.clip(self.params.elevation + delta_elevation, -np.pi / 2, np.pi / 2)
+
+    def zoom(self, factor: float) -> None:
+        if factor <= 0:
+            raise ValueError("Zoom factor must be positive")
+        self.params.distance = np.clip(self.params.distance * factor, 0.01, 1000.0)
+
+    def trackball(self, dx, dy, viewport_width, viewport_height, sensitivity: float = 1.0) -> None:
+        if viewport_width <= 0 or viewport_height <= 0:
+            raise ValueError(
+                f"Viewport dimensions must be positive, got width={viewport_width}, height={viewport_height}"
+            )
+        if dx == 0 and dy == 0:
+            return
+        s = min(viewport_width, viewport_height)
+        dxn = -(dx / s) * sensitivity
+        dyn = -(dy / s) * sensitivity
+        if abs(dxn) < 0.001 and abs(dyn) < 0.001:
+            return
+        a = _map_to_sphere(0.0, 0.0)
+        b = _map_to_sphere(dxn, dyn)
+        axis = np.cross(a, b)
+        if np.linalg.norm(axis) < 1e-8:
+            return
+        angle = np.arccos(np.clip(np.dot(a, b), -1.0, 1.0))
+        t = Rotation.from_rotvec(angle * axis / np.linalg.norm(axis))
+        new = _camera_to_quaternion(self.params) * t
+        p = self.params
+        az, el, roll = _quaternion_to_camera_angles(new, p.target, p.distance, p.init_pos, p.init_up)
+        p.azimuth, p.elevation, p.roll = az, el, roll
+
+    def pan(self, delta_target) -> None:
+        if not is_vec3(delta_target):
+            raise ValueError("delta_target must be a 3D numpy array")
+        self.params.target += delta_target
+
+    def roll_camera(self, delta_roll: float) -> None:
+        self.params.roll += delta_roll
+
+    def set_distance(self, distance: float) -> None:
+        if distance <= 0:
+            raise ValueError("Distance must be positive")
+        self.params.distance = distance
+
+    def look_at(self, target) -> None:
+        if not is_vec3(target):
+            raise ValueError("target must be a 3D numpy array")
+        self.params.target = target.astype(np.float32)
+
+    def reset_to_preset(self, preset: str, distance: Optional[float] = None) -> None:
+        presets = {
+            "front": Camera.front_view,
+            "side": Camera.side_view,
+            "top": Camera.top_view,
+            "isometric": Camera.isometric_view,
+        }
+        if preset not in presets:
+            raise ValueError(f"Unknown preset: {preset}. Available: {list(presets)}")
+        d = self.params.distance if distance is None else distance
+        self.params = presets[preset](target=np.array(self.params.target, copy=True), distance=d)
+
+    def get_position_and_up(self):
+        return get_camera_pos_from_params(self.params)
+
+    def animate_to(self, target_params: Camera, n_frames: int = 30) -> List[Camera]:
+        return CameraPath([self.params.copy(), target_params.copy()]).generate_frames(n_frames)

@@ -1,0 +1,234 @@
+"""VolumeRenderer: pyvr 0.4.1's renderer API on the Rust/wgpu engine.
+
+Differences from pyvr 0.4.1 (each a fix, see the README's migration notes):
+``render()`` returns a (H, W, 4) uint8 array of straight RGBA (row 0 at the
+bottom, as pyvr's bytes were ordered) instead of bytes with colour
+multiplied by alpha twice; early termination and the opacity threshold are
+honoured; rays stop at the box exit with the last partial step weighted by
+its length; volumes without normals are shaded with gradients; point lights
+light from their position; any volume shape renders.
+"""
+
+import warnings
+from typing import Optional
+
+import numpy as np
+
+from . import _core
+from .camera import Camera
+from .config import RenderConfig
+from .lighting import Light
+from .transferfunctions import ColorTransferFunction, OpacityTransferFunction
+from .volume import Volume
+
+
+def _vec(v):
+    a = np.asarray(v, dtype=np.float64).reshape(-1)
+    return (float(a[0]), float(a[1]), float(a[2]))
+
+
+def prepare_voxels(data: np.ndarray) -> np.ndarray:
+    """The array the engine stores: uint8/uint16 kept (1 or 2 bytes per
+    voxel, read as fractions of their range), bool as uint8 0/255, anything
+    else float32. C-contiguous; the caller's array is never modified."""
+    a = np.asarray(data)
+    if a.dtype in (np.uint8, np.uint16):
+        return np.ascontiguousarray(a)
+    if a.dtype == np.bool_:
+        return np.ascontiguousarray(a, dtype=np.uint8) * np.uint8(255)
+    if not (np.issubdtype(a.dtype, np.number) or a.dtype == np.bool_) or np.issubdtype(a.dtype, np.complexfloating):
+        raise TypeError(f"Volume data must be a real numeric array, got dtype {a.dtype}")
+    return np.ascontiguousarray(a, dtype=np.float32)
+
+
+def prepare_normals(normals: Optional[np.ndarray]) -> Optional[np.ndarray]:
+    if normals is None:
+        return None
+    n = np.asarray(normals)
+    if not np.issubdtype(n.dtype, np.number):
+        raise TypeError(f"normals must be a real numeric array, got dtype {n.dtype}")
+    return np.ascontiguousarray(n, dtype=np.float32)
+
+
+class VolumeRenderer:
+    """Renders a Volume with transfer functions, a camera and a light.
+
+    >>> renderer = VolumeRenderer(512, 512, config=RenderConfig.balanced())
+    >>> renderer.load_volume(volume); renderer.set_camera(camera)
+    >>> renderer.set_transfer_functions(ctf, otf)
+    >>> image = renderer.render()          # (512, 512, 4) uint8, row 0 = bottom
+
+    The GPU device, shader variants and uploaded data stay alive between
+    renders; changing the camera, light or config uploads no volume data.
+    """
+
+    def __init__(self, width: int = 512, height: int = 512, config: Optional[RenderConfig] = None, light: Optional[Light] = None):
+        for name, v in (("width", width), ("height", height)):
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
+                raise TypeError(f"{name} must be an integer, got {type(v)}")
+            if v < 1:
+                raise ValueError(f"{name} must be at least 1, got {v}")
+        if config is None:
+            config = RenderConfig.balanced()
+        elif not isinstance(config, RenderConfig):
+            raise TypeError(f"Expected RenderConfig instance, got {type(config)}")
+        if light is None:
+            light = Light.default()
+        elif not isinstance(light, Light):
+            raise TypeError(f"Expected Light instance, got {type(light)}")
+        self.width = int(width)
+        self.height = int(height)
+        self.volume: Optional[Volume] = None
+        self.camera: Optional[Camera] = None
+        self._engine = _core.Renderer(self.width, self.height)
+        self._camera_args = None
+        self._warned = set()
+        self.last_frame_stats: dict = {}
+        self.set_config(config)
+        self.set_light(light)
+        self._has_tf = False
+
+    # -- scene -----------------------------------------------------------
+    def load_volume(self, volume: Volume) -> None:
+        if not isinstance(volume, Volume):
+            raise TypeError(
+                f"Expected Volume instance, got {type(volume)}. Create a Volume instance: "
+                "from pyvr.volume import Volume; volume = Volume(data=your_array)"
+            )
+        volume.validate()
+        data = prepare_voxels(volume.data)
+        normals = prepare_normals(volume.normals)
+        self._engine.set_volume(data, normals, _vec(volume.min_bounds), _vec(volume.max_bounds))
+        self.volume = volume
+        self._bounds = (_vec(volume.min_bounds), _vec(volume.max_bounds))
+
+    def set_camera(self, camera: Camera) -> None:
+        """Use this camera; later changes to the object need another set_camera."""
+        if not isinstance(camera, Camera):
+            raise TypeError(f"Expected Camera instance, got {type(camera)}")
+        position, up = camera.get_camera_vectors()
+        self._camera_args = (_vec(position), _vec(camera.target), _vec(up), float(camera.fov))
+        self.camera = camera
+
+    def set_light(self, light: Light) -> None:
+        if not isinstance(light, Light):
+            raise TypeError(f"Expected Light instance, got {type(light)}")
+        light.validate()
+        self._light_args = (
+            _vec(light.position),
+            _vec(light.target),
+            float(light.ambient_intensity),
+            float(light.diffuse_intensity),
+            getattr(light, "_kind", "directional"),
+        )
+        self.light = light
+
+    def set_transfer_functions(self, color_transfer_function, opacity_transfer_function, size: Optional[int] = None) -> None:
+        """Tabulate both functions at ``size`` points (default: the larger
+        lut_size) over [0, 1]; the renderer interpolates between entries."""
+        n = size or max(color_transfer_function.lut_size, opacity_transfer_function.lut_size)
+        rgb = np.asarray(color_transfer_function.to_lut(n), dtype=np.float32).reshape(n, 3)
+        alpha = np.asarray(opacity_transfer_function.to_lut(n), dtype=np.float32).reshape(n)
+        lut = np.empty((n, 4), dtype=np.float32)
+        lut[:, :3] = rgb
+        lut[:, 3] = alpha
+        if not np.all(np.isfinite(lut)) or lut.min() < 0 or lut.max() > 1:
+            raise ValueError("transfer functions must give colours and opacities in [0, 1]")
+        self._engine.set_lut(lut)
+        self._has_tf = True
+
+    def set_config(self, config: RenderConfig) -> None:
+        if not isinstance(config, RenderConfig):
+            raise TypeError(f"Expected RenderConfig instance, got {type(config)}")
+        config.validate()
+        self._config_snapshot = config.copy()
+        self.config = config
+
+    def get_config(self) -> RenderConfig:
+        return self.config
+
+    def get_light(self) -> Light:
+        return self.light
+
+    def get_volume(self) -> Optional[Volume]:
+        return self.volume
+
+    def get_camera(self) -> Optional[Camera]:
+        return self.camera
+
+    @property
+    def device(self) -> str:
+        """The GPU adapter in use (e.g. 'llvmpipe (Vulkan, Cpu, ...)')."""
+        return self._engine.device
+
+    def counters(self) -> dict:
+        """Frames rendered, uploads made and bytes resident, for profiling."""
+        return self._engine.counters()
+
+    # -- frames ----------------------------------------------------------
+    def _render_float(self) -> np.ndarray:
+        if self.volume is None:
+            raise RuntimeError("no volume loaded: call load_volume() before render()")
+        if not self._has_tf:
+            self.set_transfer_functions(ColorTransferFunction(), OpacityTransferFunction())
+        if self._camera_args is None:
+            self.set_camera(Camera.front_view())
+            self.camera = None  # pyvr: get_camera() stays None until set
+        cfg = self._config_snapshot
+        img, stats = self._engine.render(*self._camera_args, *self._light_args, cfg)
+        self.last_frame_stats = stats
+        needed = stats["truncated_needed"]
+        if needed:
+            key = (cfg.step_size, cfg.max_steps, self._bounds)
+            if key not in self._warned:
+                self._warned.add(key)
+                warnings.warn(
+                    f"max_steps={cfg.max_steps} cannot cross the volume at step_size={cfg.step_size}: "
+                    f"some rays were cut short; max_steps={needed} would cross it "
+                    f"(config.with_max_steps({needed}))",
+                    UserWarning,
+                    stacklevel=3,
+                )
+        return img
+
+    def render(self, *, dtype=np.uint8, premultiplied: bool = False, origin: str = "lower") -> np.ndarray:
+        """Render a frame as a C-contiguous (H, W, 4) array.
+
+        dtype: np.uint8 (default) or np.float32. premultiplied: return colour
+        multiplied by alpha (default: straight colour). origin: "lower"
+        (default, row 0 = bottom, pyvr's order) or "upper" (row 0 = top).
+        """
+        if origin not in ("lower", "upper"):
+            raise ValueError(f"origin must be 'lower' or 'upper', got {origin!r}")
+        dt = np.dtype(dtype)
+        if dt not in (np.dtype(np.uint8), np.dtype(np.float32)):
+            raise ValueError(f"dtype must be uint8 or float32, got {dt}")
+        img = self._render_float()
+        if dt == np.uint8:
+            out = _core.quantize(img, not premultiplied)
+        else:
+            out = img
+            if not premultiplied:
+                a = out[..., 3:4]
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    rgb = np.where(a > 0, out[..., :3] / a, 0.0)
+                out[..., :3] = np.clip(rgb, 0.0, 1.0)
+        if origin == "upper":
+            out = np.ascontiguousarray(out[::-1])
+        return out
+
+    def render_to_pil(self, data=None):
+        """The frame as a PIL RGBA image, top row at the top."""
+        from PIL import Image
+
+        if data is None:
+            data = self.render()
+        if isinstance(data, np.ndarray):
+            data = data.tobytes()
+        image = Image.frombytes("RGBA", (self.width, self.height), data)
+        return image.transpose(Image.FLIP_TOP_BOTTOM)
+
+
+ModernGLVolumeRenderer = VolumeRenderer
+
+__all__ = ["VolumeRenderer", "prepare_voxels"]

@@ -1,0 +1,15 @@
+"""Transfer functions: map scalar values to colour and opacity."""
+
+from .base import BaseTransferFunction, InvalidControlPointError, TransferFunctionError
+from .color import ColorTransferFunction
+from .opacity import OpacityTransferFunction
+
+__version__ = "0.2.2"
+
+__all__ = [
+    "BaseTransferFunction",
+    "ColorTransferFunction",
+    "OpacityTransferFunction",
+    "TransferFunctionError",
+    "InvalidControlPointError",
+]

@@ -1,0 +1,99 @@
+"""Base class and validation shared by colour and opacity transfer functions."""
+
+from abc import ABC, abstractmethod
+from typing import List, Optional, Tuple
+
+import numpy as np
+
+from .._core import lut_from_points
+from .._numbers import is_number
+
+
+class TransferFunctionError(Exception):
+    """Base error for transfer functions."""
+
+
+class InvalidControlPointError(TransferFunctionError):
+    """A control point is malformed or out of range."""
+
+
+class BaseTransferFunction(ABC):
+    """A piecewise-linear function of the scalar value, given by control points.
+
+    Subclasses define ``_get_default_control_points``,
+    ``_validate_control_points`` and ``to_lut``. Any subclass whose ``to_lut``
+    returns ``(size,)`` or ``(size, 3)`` values can be given to the renderer.
+    """
+
+    def __init__(self, control_points: Optional[List[Tuple]] = None, lut_size: int = 256):
+        if control_points is None:
+            control_points = self._get_default_control_points()
+        self.control_points = sorted(control_points, key=lambda p: p[0])
+        self.lut_size = lut_size
+        self._validate_control_points()
+
+    @abstractmethod
+    def _get_default_control_points(self) -> List[Tuple]:
+        ...
+
+    @abstractmethod
+    def _validate_control_points(self) -> None:
+        ...
+
+    @abstractmethod
+    def to_lut(self, size: Optional[int] = None) -> np.ndarray:
+        ...
+
+    def __call__(self, size: Optional[int] = None) -> np.ndarray:
+        return self.to_lut(size)
+
+    def _validate_scalar_range(self, min_val: float = 0.0, max_val: float = 1.0) -> None:
+        for scalar, _ in self.control_points:
+            if not (min_val <= scalar <= max_val):
+                raise ValueError(f"Control point scalar {scalar} outside valid range [{min_val}, {max_val}]")
+
+    def _get_scalar_values(self) -> np.ndarray:
+        return np.array([p[0] for p in self.control_points])
+
+    def _get_mapped_values(self) -> np.ndarray:
+        return np.array([p[1] for p in self.control_points])
+
+    def _table(self, size: Optional[int]) -> np.ndarray:
+        """Values at ``linspace(0, 1, n)`` with numpy.interp rules, as (n, C) float32."""
+        n = size or self.lut_size
+        scalars = np.ascontiguousarray(self._get_scalar_values(), dtype=np.float64)
+        values = np.asarray(self._get_mapped_values(), dtype=np.float64)
+        values = np.ascontiguousarray(values.reshape(len(scalars), -1))
+        return lut_from_points(scalars, values, int(n))
+
+    def _apply(self, scalar_array) -> np.ndarray:
+        x = np.asarray(scalar_array, dtype=np.float64)
+        scalars = self._get_scalar_values().astype(np.float64)
+        values = np.asarray(self._get_mapped_values(), dtype=np.float64).reshape(len(scalars), -1)
+        cols = [np.interp(x, scalars, values[:, c]) for c in range(values.shape[1])]
+        return np.stack(cols, axis=-1).astype(np.float32)
+
+
+def validate_control_points_format(control_points, expected_value_length: int) -> None:
+    """Raise InvalidControlPointError with pyvr's messages for malformed points."""
+    if not control_points:
+        raise InvalidControlPointError("Control points cannot be empty")
+    for i, point in enumerate(control_points):
+        if not isinstance(point, (tuple, list)) or len(point) != 2:
+            raise InvalidControlPointError(f"Control point {i} must be a (scalar, value) tuple, got {point}")
+        scalar, value = point
+        if not is_number(scalar):
+            raise InvalidControlPointError(f"Control point {i} scalar must be numeric, got {type(scalar)}")
+        if expected_value_length == 1:
+            if not is_number(value):
+                raise InvalidControlPointError(f"Control point {i} value must be numeric, got {type(value)}")
+        else:
+            if not isinstance(value, (tuple, list, np.ndarray)) or len(value) != expected_value_length:
+                raise InvalidControlPointError(
+                    f"Control point {i} value must be a {expected_value_length}-element sequence, got {value}"
+                )
+            for j, comp in enumerate(value):
+                if not is_number(comp):
+                    raise InvalidControlPointError(
+                        f"Control point {i} value component {j} must be numeric, got {type(comp)}"
+                    )

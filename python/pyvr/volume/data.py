@@ -1,0 +1,112 @@
+"""The Volume: a 3-D array, its world box and optional normals (pyvr 0.4.1)."""
+
+from dataclasses import dataclass, field
+from typing import Optional
+
+import numpy as np
+
+
+class VolumeError(Exception):
+    """Kept for compatibility with pyvr 0.4.1 (never raised)."""
+
+
+def _f32(v):
+    return np.array(v, dtype=np.float32)
+
+
+@dataclass
+class Volume:
+    """``data[i, j, k]`` fills the box ``[min_bounds, max_bounds]`` with axis 0
+    along world x, axis 1 along y, axis 2 along z; voxels are cell-centred.
+
+    Any shape renders (pyvr scrambled shape[0] != shape[2]). Float data is
+    used as given against the transfer function's [0, 1] domain; uint8 and
+    uint16 data are read as fractions of their range (like GPU unorm
+    textures) and stored in 1 or 2 bytes per voxel; other dtypes are
+    converted to float32. NaN voxels are empty.
+    """
+
+    data: np.ndarray
+    normals: Optional[np.ndarray] = None
+    min_bounds: np.ndarray = field(default_factory=lambda: _f32([-0.5, -0.5, -0.5]))
+    max_bounds: np.ndarray = field(default_factory=lambda: _f32([0.5, 0.5, 0.5]))
+    name: Optional[str] = None
+
+    def __post_init__(self):
+        self.validate()
+
+    def validate(self) -> None:
+        if not isinstance(self.data, np.ndarray):
+            raise ValueError("Volume data must be a numpy array")
+        if self.data.ndim != 3:
+            raise ValueError(f"Volume data must be 3D, got shape {self.data.shape}")
+        if self.normals is not None:
+            if not isinstance(self.normals, np.ndarray):
+                raise ValueError("Normal volume must be a numpy array")
+            if self.normals.shape != self.data.shape + (3,):
+                raise ValueError(f"Normal volume must have shape {self.data.shape + (3,)}, got {self.normals.shape}")
+        if not (isinstance(self.min_bounds, np.ndarray) and self.min_bounds.shape == (3,)):
+            raise ValueError("min_bounds must be a 3D numpy array")
+        if not (isinstance(self.max_bounds, np.ndarray) and self.max_bounds.shape == (3,)):
+            raise ValueError("max_bounds must be a 3D numpy array")
+        if np.any(self.max_bounds <= self.min_bounds):
+            raise ValueError("max_bounds must be greater than min_bounds")
+
+    @property
+    def shape(self):
+        return self.data.shape
+
+    @property
+    def dimensions(self) -> np.ndarray:
+        return self.max_bounds - self.min_bounds
+
+    @property
+    def center(self) -> np.ndarray:
+        return (self.min_bounds + self.max_bounds) / 2
+
+    @property
+    def has_normals(self) -> bool:
+        return self.normals is not None
+
+    @property
+    def voxel_spacing(self) -> np.ndarray:
+        return self.dimensions / np.array(self.data.shape)
+
+    def compute_normals(self, method: str = "gradient") -> None:
+        if method != "gradient":
+            raise ValueError(f"Unsupported method: {method}")
+        from ..datasets import compute_normal_volume
+
+        self.normals = compute_normal_volume(self.data)
+
+    def normalize(self, method: str = "minmax") -> "Volume":
+        d = self.data.astype(np.float32)
+        if method == "minmax":
+            lo, hi = float(np.min(d)), float(np.max(d))
+            d = np.zeros_like(d) if hi - lo < 1e-9 else (d - lo) / (hi - lo)
+        elif method == "zscore":
+            mu, sd = float(np.mean(d)), float(np.std(d))
+            d = np.zeros_like(d) if sd < 1e-9 else (d - mu) / sd
+        else:
+            raise ValueError(f"Unsupported method: {method}")
+        return Volume(
+            data=d.astype(np.float32),
+            normals=None if self.normals is None else self.normals.copy(),
+            min_bounds=self.min_bounds.copy(),
+            max_bounds=self.max_bounds.copy(),
+            name=None if self.name is None else f"{self.name}_normalized",
+        )
+
+    def copy(self) -> "Volume":
+        return Volume(
+            data=self.data.copy(),
+            normals=None if self.normals is None else self.normals.copy(),
+            min_bounds=self.min_bounds.copy(),
+            max_bounds=self.max_bounds.copy(),
+            name=self.name,
+        )
+
+    def __repr__(self) -> str:
+        name = f"'{self.name}'" if self.name is not None else "unnamed"
+        normals = "with normals" if self.has_normals else "no normals"
+        return f"Volume({name}, shape={self.shape}, bounds=[{self.min_bounds}, {self.max_bounds}], {normals})"

@@ -1,0 +1,29 @@
+//! The PyO3 module `pyvr._core`: the only place pyo3 is used.
+
+mod config;
+mod renderer;
+mod transfer;
+
+use pyo3::prelude::*;
+
+/// Device description, or raise RuntimeError if no adapter can be opened.
+#[pyfunction]
+fn device_info() -> PyResult<String> {
+    crate::gpu::GpuContext::get()
+        .map(|c| c.describe())
+        .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.0))
+}
+
+#[pymodule]
+fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<config::PyRenderConfig>()?;
+    m.add_class::<renderer::PyRenderer>()?;
+    m.add_function(wrap_pyfunction!(renderer::quantize, m)?)?;
+    m.add_function(wrap_pyfunction!(renderer::integrate_reference, m)?)?;
+    m.add_function(wrap_pyfunction!(transfer::lut_from_points, m)?)?;
+    m.add_function(wrap_pyfunction!(transfer::colormap_table, m)?)?;
+    m.add_function(wrap_pyfunction!(transfer::colormap_names, m)?)?;
+    m.add_function(wrap_pyfunction!(device_info, m)?)?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}

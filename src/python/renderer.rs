@@ -1,0 +1,286 @@
+//! `pyvr._core.Renderer`: the GPU engine behind `pyvr.VolumeRenderer`, and
+//! the f64 oracle. Arguments arrive already normalised by the Python layer
+//! (C-contiguous arrays of a supported dtype, plain tuples), but everything
+//! is checked again here: bad input is a ValueError/TypeError, never a panic.
+
+use super::config::PyRenderConfig;
+use crate::gpu::renderer::to_u8;
+use crate::gpu::{GpuError, GpuRenderer};
+use crate::integrate::{self, Frame};
+use crate::scene::{Bounds, Camera, Light, LightKind};
+use crate::volume::{VolumeView, Voxels};
+use glam::DVec3;
+use numpy::{PyArray1, PyArray3, PyArrayMethods, PyReadonlyArray2, PyReadonlyArray3, PyReadonlyArray4, PyUntypedArrayMethods};
+use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+pub fn gpu_err(e: GpuError) -> PyErr {
+    // Limits and bad arguments are the caller's to fix; the rest is ours.
+    if e.0.contains("limit") || e.0.contains("must") || e.0.contains("no volume") || e.0.contains("no transfer") {
+        PyValueError::new_err(e.0)
+    } else {
+        PyRuntimeError::new_err(e.0)
+    }
+}
+
+type Vec3 = (f64, f64, f64);
+
+fn dv(v: Vec3) -> DVec3 {
+    DVec3::new(v.0, v.1, v.2)
+}
+
+pub fn camera_from(position: Vec3, target: Vec3, up: Vec3, fov: f64) -> Camera {
+    Camera { position: dv(position), target: dv(target), up: dv(up), fov_y: fov }
+}
+
+pub fn light_from(position: Vec3, target: Vec3, ambient: f64, diffuse: f64, kind: &str) -> PyResult<Light> {
+    let kind = match kind {
+        "directional" => LightKind::Directional,
+        "point" => LightKind::Point,
+        other => return Err(PyValueError::new_err(format!("light kind must be 'directional' or 'point', got '{other}'"))),
+    };
+    for (n, v) in [("ambient_intensity", ambient), ("diffuse_intensity", diffuse)] {
+        if !v.is_finite() {
+            return Err(PyValueError::new_err(format!("{n} must be finite, got {v}")));
+        }
+    }
+    Ok(Light { position: dv(position), target: dv(target), ambient, diffuse, kind })
+}
+
+/// Borrowed voxels of any supported dtype.
+enum VoxelArray<'py> {
+    F32(PyReadonlyArray3<'py, f32>),
+    U8(PyReadonlyArray3<'py, u8>),
+    U16(PyReadonlyArray3<'py, u16>),
+}
+
+impl<'py> VoxelArray<'py> {
+    fn extract(data: &Bound<'py, PyAny>) -> PyResult<Self> {
+        if let Ok(a) = data.extract::<PyReadonlyArray3<'py, f32>>() {
+            return Ok(VoxelArray::F32(a));
+        }
+        if let Ok(a) = data.extract::<PyReadonlyArray3<'py, u8>>() {
+            return Ok(VoxelArray::U8(a));
+        }
+        if let Ok(a) = data.extract::<PyReadonlyArray3<'py, u16>>() {
+            return Ok(VoxelArray::U16(a));
+        }
+        Err(PyTypeError::new_err(
+            "volume data must be a 3-D numpy array of float32, uint8 or uint16 (pyvr.volume converts other dtypes)",
+        ))
+    }
+
+    fn view(&self) -> PyResult<([usize; 3], Voxels<'_>)> {
+        let noncontig = |_| PyValueError::new_err("volume data must be C-contiguous");
+        let (shape, vox) = match self {
+            VoxelArray::F32(a) => (a.shape().to_vec(), Voxels::F32(a.as_slice().map_err(noncontig)?)),
+            VoxelArray::U8(a) => (a.shape().to_vec(), Voxels::U8(a.as_slice().map_err(noncontig)?)),
+            VoxelArray::U16(a) => (a.shape().to_vec(), Voxels::U16(a.as_slice().map_err(noncontig)?)),
+        };
+        Ok(([shape[0], shape[1], shape[2]], vox))
+    }
+}
+
+fn bounds_from(min: Vec3, max: Vec3) -> PyResult<Bounds> {
+    Bounds::new(dv(min), dv(max)).map_err(|e| PyValueError::new_err(e.0))
+}
+
+fn normals_slice<'a>(n: &'a Option<PyReadonlyArray4<'_, f32>>, dims: [usize; 3]) -> PyResult<Option<&'a [f32]>> {
+    match n {
+        None => Ok(None),
+        Some(a) => {
+            let s = a.shape();
+            if s != [dims[0], dims[1], dims[2], 3] {
+                return Err(PyValueError::new_err(format!(
+                    "Normal volume must have shape {:?}, got {:?}",
+                    (dims[0], dims[1], dims[2], 3),
+                    s
+                )));
+            }
+            Ok(Some(a.as_slice().map_err(|_| PyValueError::new_err("normals must be C-contiguous"))?))
+        }
+    }
+}
+
+fn lut_rows(lut: &PyReadonlyArray2<'_, f32>) -> PyResult<Vec<[f32; 4]>> {
+    let s = lut.shape();
+    if s.len() != 2 || s[1] != 4 || s[0] == 0 {
+        return Err(PyValueError::new_err(format!("lookup table must have shape (M, 4) with M >= 1, got {s:?}")));
+    }
+    let flat = lut.as_slice().map_err(|_| PyValueError::new_err("lookup table must be C-contiguous"))?;
+    if flat.iter().any(|v| !v.is_finite()) {
+        return Err(PyValueError::new_err("lookup table values must be finite"));
+    }
+    Ok(flat.chunks_exact(4).map(|c| [c[0], c[1], c[2], c[3]]).collect())
+}
+
+#[pyclass(name = "Renderer", module = "pyvr._core")]
+pub struct PyRenderer {
+    inner: GpuRenderer,
+}
+
+#[pymethods]
+impl PyRenderer {
+    #[new]
+    fn new(py: Python<'_>, width: u32, height: u32) -> PyResult<Self> {
+        let inner = py.detach(|| GpuRenderer::new(width, height)).map_err(gpu_err)?;
+        Ok(PyRenderer { inner })
+    }
+
+    fn resize(&mut self, width: u32, height: u32) -> PyResult<()> {
+        self.inner.resize(width, height).map_err(gpu_err)
+    }
+
+    #[getter]
+    fn width(&self) -> u32 {
+        self.inner.size().0
+    }
+
+    #[getter]
+    fn height(&self) -> u32 {
+        self.inner.size().1
+    }
+
+    /// Uploads a volume; data is float32, uint8 or uint16, C-contiguous.
+    #[pyo3(signature = (data, normals, min_bounds, max_bounds))]
+    fn set_volume(
+        &mut self,
+        py: Python<'_>,
+        data: &Bound<'_, PyAny>,
+        normals: Option<PyReadonlyArray4<'_, f32>>,
+        min_bounds: Vec3,
+        max_bounds: Vec3,
+    ) -> PyResult<()> {
+        let arr = VoxelArray::extract(data)?;
+        let (dims, voxels) = arr.view()?;
+        let n = normals_slice(&normals, dims)?;
+        let b = bounds_from(min_bounds, max_bounds)?;
+        let view = VolumeView::new(dims, voxels, n, b).map_err(|e| PyValueError::new_err(e.0))?;
+        let inner = &mut self.inner;
+        py.detach(|| inner.set_volume(&view)).map_err(gpu_err)
+    }
+
+    fn set_bounds(&mut self, min_bounds: Vec3, max_bounds: Vec3) -> PyResult<()> {
+        self.inner.set_bounds(bounds_from(min_bounds, max_bounds)?);
+        Ok(())
+    }
+
+    /// Uploads an (M, 4) float32 RGBA table, entries at scalars m / (M - 1).
+    fn set_lut(&mut self, lut: PyReadonlyArray2<'_, f32>) -> PyResult<()> {
+        let rows = lut_rows(&lut)?;
+        self.inner.set_lut(&rows).map_err(gpu_err)
+    }
+
+    /// Renders one frame: float32 (H, W, 4) premultiplied RGBA, row 0 at the
+    /// bottom, and a dict of frame statistics.
+    #[allow(clippy::too_many_arguments)]
+    #[pyo3(signature = (cam_position, cam_target, cam_up, fov, light_position, light_target, ambient, diffuse, light_kind, config))]
+    fn render<'py>(
+        &mut self,
+        py: Python<'py>,
+        cam_position: Vec3,
+        cam_target: Vec3,
+        cam_up: Vec3,
+        fov: f64,
+        light_position: Vec3,
+        light_target: Vec3,
+        ambient: f64,
+        diffuse: f64,
+        light_kind: &str,
+        config: PyRef<'_, PyRenderConfig>,
+    ) -> PyResult<(Bound<'py, PyArray3<f32>>, Bound<'py, PyDict>)> {
+        let camera = camera_from(cam_position, cam_target, cam_up, fov);
+        let light = light_from(light_position, light_target, ambient, diffuse, light_kind)?;
+        let cfg = config.inner;
+        let (w, h) = self.inner.size();
+        let inner = &mut self.inner;
+        let (img, stats) = py.detach(|| inner.render(&camera, &light, &cfg)).map_err(gpu_err)?;
+        let arr = PyArray1::from_vec(py, img).reshape([h as usize, w as usize, 4])?;
+        let d = PyDict::new(py);
+        d.set_item("truncated_needed", stats.truncated_needed)?;
+        d.set_item("uploaded_bytes", stats.uploaded_bytes)?;
+        Ok((arr, d))
+    }
+
+    /// Life-time counters: frames, volume_uploads, lut_uploads, uploaded_bytes,
+    /// volume_bytes (resident), pipeline_variants (compiled so far).
+    fn counters<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let c = self.inner.counters;
+        let d = PyDict::new(py);
+        d.set_item("frames", c.frames)?;
+        d.set_item("volume_uploads", c.volume_uploads)?;
+        d.set_item("lut_uploads", c.lut_uploads)?;
+        d.set_item("uploaded_bytes", c.uploaded_bytes)?;
+        d.set_item("volume_bytes", self.inner.volume_bytes())?;
+        d.set_item("pipeline_variants", self.inner.cached_variants())?;
+        Ok(d)
+    }
+
+    #[getter]
+    fn device(&self) -> String {
+        self.inner.context().describe()
+    }
+}
+
+/// Premultiplied float RGBA (H, W, 4) to uint8; `straight` un-premultiplies.
+#[pyfunction]
+#[pyo3(signature = (rgba, straight=true))]
+pub fn quantize<'py>(py: Python<'py>, rgba: PyReadonlyArray3<'py, f32>, straight: bool) -> PyResult<Bound<'py, PyArray3<u8>>> {
+    let s = rgba.shape().to_vec();
+    if s[2] != 4 {
+        return Err(PyValueError::new_err(format!("expected shape (H, W, 4), got {s:?}")));
+    }
+    let src = rgba.as_slice().map_err(|_| PyValueError::new_err("image must be C-contiguous"))?;
+    let mut out = vec![0u8; src.len()];
+    to_u8(src, straight, &mut out);
+    Ok(PyArray1::from_vec(py, out).reshape([s[0], s[1], 4])?)
+}
+
+/// The f64 integrator: the same frame as the GPU renders, in double
+/// precision. Returns float64 (H, W, 4) premultiplied RGBA (row 0 at the
+/// bottom) and the largest step count a truncated ray needed.
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (data, normals, min_bounds, max_bounds, lut, cam_position, cam_target, cam_up, fov, light_position, light_target, ambient, diffuse, light_kind, config, width, height))]
+pub fn integrate_reference<'py>(
+    py: Python<'py>,
+    data: &Bound<'py, PyAny>,
+    normals: Option<PyReadonlyArray4<'py, f32>>,
+    min_bounds: Vec3,
+    max_bounds: Vec3,
+    lut: PyReadonlyArray2<'py, f32>,
+    cam_position: Vec3,
+    cam_target: Vec3,
+    cam_up: Vec3,
+    fov: f64,
+    light_position: Vec3,
+    light_target: Vec3,
+    ambient: f64,
+    diffuse: f64,
+    light_kind: &str,
+    config: PyRef<'py, PyRenderConfig>,
+    width: u32,
+    height: u32,
+) -> PyResult<(Bound<'py, PyArray3<f64>>, u64)> {
+    let arr = VoxelArray::extract(data)?;
+    let (dims, voxels) = arr.view()?;
+    let n = normals_slice(&normals, dims)?;
+    let b = bounds_from(min_bounds, max_bounds)?;
+    let volume = VolumeView::new(dims, voxels, n, b).map_err(|e| PyValueError::new_err(e.0))?;
+    let rows = lut_rows(&lut)?;
+    let cfg = config.inner;
+    cfg.validate().map_err(|e| PyValueError::new_err(e.0))?;
+    let frame = Frame {
+        volume,
+        lut: &rows,
+        camera: camera_from(cam_position, cam_target, cam_up, fov),
+        light: light_from(light_position, light_target, ambient, diffuse, light_kind)?,
+        config: cfg,
+        width,
+        height,
+    };
+    let (img, needed) = py.detach(|| integrate::render(&frame)).map_err(|e| PyValueError::new_err(e.0))?;
+    let flat: Vec<f64> = img.into_iter().flatten().collect();
+    Ok((PyArray1::from_vec(py, flat).reshape([height as usize, width as usize, 4])?, needed))
+}
