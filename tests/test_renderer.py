@@ -1,0 +1,207 @@
+"""VolumeRenderer behaviour: output layout, orientation, dtypes, warnings,
+uploads, and clear errors for bad input."""
+
+import warnings
+
+import numpy as np
+import pytest
+
+from pyvr import RenderConfig, VolumeRenderer, _core
+from pyvr.camera import Camera
+from pyvr.datasets import compute_normal_volume, create_sample_volume
+from pyvr.lighting import Light
+from pyvr.transferfunctions import ColorTransferFunction, OpacityTransferFunction
+from pyvr.volume import Volume
+from test_closed_form import chords
+
+W, H = 40, 32
+
+
+def make(vol, config=None, light=None, camera=None, w=W, h=H, otf=None):
+    r = VolumeRenderer(w, h, config=config, light=light or Light.ambient_only(1.0))
+    r.load_volume(vol)
+    r.set_camera(camera or Camera.front_view(distance=3.0))
+    r.set_transfer_functions(ColorTransferFunction.grayscale(), otf or OpacityTransferFunction.linear(0.0, 0.5))
+    return r
+
+
+def test_output_layout_and_pil():
+    r = make(Volume(create_sample_volume(16, "sphere")))
+    img = r.render()
+    assert img.shape == (H, W, 4) and img.dtype == np.uint8 and img.flags.c_contiguous
+    up = r.render(origin="upper")
+    assert np.array_equal(up, img[::-1])
+    pil = r.render_to_pil()
+    assert pil.size == (W, H) and pil.mode == "RGBA"
+    assert np.array_equal(np.asarray(pil), img[::-1])
+    f = r.render(dtype=np.float32, premultiplied=True)
+    assert f.dtype == np.float32 and np.isfinite(f).all()
+    assert np.all(f[..., :3] <= f[..., 3:4] + 1e-6), "premultiplied colour never exceeds alpha"
+    with pytest.raises(ValueError, match="origin"):
+        r.render(origin="left")
+    with pytest.raises(ValueError, match="dtype"):
+        r.render(dtype=np.int16)
+
+
+def test_world_axes_and_non_cubic_orientation():
+    # numpy axis 1 is world y (screen right in the front view), axis 2 is
+    # world z (screen up; row 0 is the bottom).
+    d = np.zeros((6, 10, 14), np.float32)
+    d[:, 5:, :] = 1.0
+    img = make(Volume(d)).render()
+    assert img[:, W // 2:, 3].mean() > 50 * max(img[:, : W // 2 - 2, 3].mean(), 0.1)
+    d = np.zeros((6, 10, 14), np.float32)
+    d[:, :, 7:] = 1.0
+    img = make(Volume(d)).render()
+    assert img[H // 2:, :, 3].mean() > 50 * max(img[: H // 2 - 2, :, 3].mean(), 0.1)
+
+
+def test_early_termination_and_threshold_are_honoured():
+    vol = Volume(np.full((8, 8, 8), 1.0, np.float32))
+    on = make(vol, RenderConfig(early_ray_termination=True, opacity_threshold=0.6),
+              otf=OpacityTransferFunction.linear(0.3, 0.3))
+    off = make(vol, RenderConfig(early_ray_termination=False), otf=OpacityTransferFunction.linear(0.3, 0.3))
+    a_on = on.render(dtype=np.float32)[H // 2, W // 2, 3]
+    a_off = off.render(dtype=np.float32)[H // 2, W // 2, 3]
+    # One step at ref: a = 1 - e^-0.3 = 0.259; it takes 4 steps to pass 0.6.
+    assert a_on == pytest.approx(1 - np.exp(-0.3 * 4), abs=2e-3)
+    assert a_off == pytest.approx(1 - np.exp(-0.3 * 100), abs=1e-3)
+
+
+def test_max_steps_warning_names_what_would_cross_once():
+    vol = Volume(np.full((8, 8, 8), 0.5, np.float32), None, np.full(3, -1, np.float32), np.ones(3, np.float32))
+    cfg = RenderConfig.preview()
+    r = make(vol, cfg, camera=Camera.isometric_view(distance=3.0), otf=OpacityTransferFunction.linear(0.0, 0.001))
+    with pytest.warns(UserWarning, match=r"max_steps=50 cannot cross the volume") as rec:
+        r.render()
+    msg = str(rec[0].message)
+    needed = int(msg.split("max_steps=")[2].split()[0])
+    L = chords(Camera.isometric_view(distance=3.0), np.full(3, -1.0), np.ones(3), W, H)
+    assert abs(needed - int(np.ceil(L.max() / 0.05))) <= 1
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        r.render()  # once per config and volume box
+    r.set_config(cfg.with_max_steps(needed))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        r.render()
+
+
+def test_camera_only_rerender_uploads_no_volume():
+    d = create_sample_volume(32, "double_sphere")
+    r = make(Volume(d, compute_normal_volume(d)), light=Light.default())
+    r.render()
+    before = r.counters()
+    r.set_camera(Camera.isometric_view())
+    r.set_light(Light.directional([0, 1, 0]))
+    r.set_config(RenderConfig.fast())
+    r.render()
+    after = r.counters()
+    assert after["volume_uploads"] == before["volume_uploads"] == 1
+    assert after["lut_uploads"] == before["lut_uploads"]
+    assert r.last_frame_stats["uploaded_bytes"] < 512
+    assert after["volume_bytes"] == 32**3 * 4 + 32**3 * 8  # R32Float + Rgba16Float normals
+
+
+def test_dtypes_layouts_and_inputs_untouched():
+    base = create_sample_volume(12, "sphere")
+    ref = make(Volume(base)).render()
+    u8 = np.round(base * 255).astype(np.uint8)
+    u8_copy = u8.copy()
+    img8 = make(Volume(u8)).render()
+    assert np.abs(img8.astype(int) - ref).max() <= 2
+    assert np.array_equal(u8, u8_copy)
+    assert make(Volume(u8)).counters()["volume_bytes"] == 12**3
+    u16 = np.round(base * 65535).astype(np.uint16)
+    assert np.abs(make(Volume(u16)).render().astype(int) - ref).max() <= 1
+    f64 = base.astype(np.float64)
+    assert np.array_equal(make(Volume(f64)).render(), ref)
+    fortran = np.asfortranarray(base)
+    assert np.array_equal(make(Volume(fortran)).render(), ref)
+    big = np.zeros((24, 12, 12), np.float32)
+    big[::2] = base
+    strided = big[::2]
+    assert not strided.flags.c_contiguous
+    assert np.array_equal(make(Volume(strided)).render(), ref)
+    mask = base > 0.3
+    img_b = make(Volume(mask)).render()
+    assert img_b[..., 3].max() > 100
+    i16 = (base * 1000).astype(np.int16)
+    assert make(Volume(i16)).render()[..., 3].max() > 0  # converted as raw values, clamped by the TF
+
+
+def test_nan_and_inf_voxels():
+    d = create_sample_volume(12, "sphere")
+    d[3:6] = np.nan
+    d[0, 0, 0] = np.inf
+    d[1, 1, 1] = -np.inf
+    before = d.copy()
+    img = make(Volume(d)).render(dtype=np.float32, premultiplied=True)
+    assert np.isfinite(img).all() and img.min() >= 0 and img.max() <= 1
+    assert np.array_equal(np.isnan(d), np.isnan(before))
+    all_nan = make(Volume(np.full((4, 4, 4), np.nan, np.float32))).render()
+    assert not all_nan.any()
+
+
+def test_gradient_shading_without_normals_varies():
+    d = create_sample_volume(32, "sphere")
+    r = make(Volume(d), light=Light.directional([-1, 0, 0], ambient=0.1, diffuse=0.9),
+             camera=Camera.side_view(), otf=OpacityTransferFunction.linear(0, 1))
+    r.set_transfer_functions(ColorTransferFunction.single_color((1.0, 1.0, 1.0)), OpacityTransferFunction.linear(0, 1))
+    img = r.render()
+    row = img[H // 2, :, 0].astype(int)
+    lit = row[img[H // 2, :, 3] > 20]
+    # Straight colour is the light intensity: ambient 0.1 on the far side,
+    # up to 1.0 facing the light (screen left is world +x in the side view).
+    assert lit.max() - lit.min() > 100, "diffuse shading from gradients, not constant"
+    assert row[: W // 2].max() > row[W // 2:].max()
+
+
+@pytest.mark.parametrize("call,exc,msg", [
+    (lambda: VolumeRenderer(0, 10), ValueError, "width must be at least 1"),
+    (lambda: VolumeRenderer(10.5, 10), TypeError, "width must be an integer"),
+    (lambda: VolumeRenderer(config="fast"), TypeError, "Expected RenderConfig instance"),
+    (lambda: VolumeRenderer(light=1), TypeError, "Expected Light instance"),
+    (lambda: VolumeRenderer(200_000, 200_000), ValueError, "limit"),
+])
+def test_constructor_errors(call, exc, msg):
+    with pytest.raises(exc, match=msg):
+        call()
+
+
+def test_method_errors():
+    r = VolumeRenderer(8, 8)
+    with pytest.raises(RuntimeError, match="no volume loaded"):
+        r.render()
+    with pytest.raises(TypeError, match="Expected Volume instance.*from pyvr.volume import Volume"):
+        r.load_volume(np.zeros((2, 2, 2)))
+    with pytest.raises(TypeError, match="Expected Camera instance"):
+        r.set_camera("front")
+    with pytest.raises(TypeError, match="Expected Light instance"):
+        r.set_light(None)
+    with pytest.raises(TypeError, match="Expected RenderConfig instance"):
+        r.set_config({"step_size": 0.1})
+    with pytest.raises(TypeError, match="real numeric"):
+        r.load_volume(Volume(np.zeros((2, 2, 2), np.complex64)))
+    bad = RenderConfig()
+    bad.reference_step_size = -1.0
+    with pytest.raises(ValueError, match="reference_step_size"):
+        r.set_config(bad)
+
+    class Wild(OpacityTransferFunction):
+        def to_lut(self, size=None):
+            return np.full(size or self.lut_size, 2.0, np.float32)
+
+    with pytest.raises(ValueError, match=r"in \[0, 1\]"):
+        r.set_transfer_functions(ColorTransferFunction(), Wild())
+    assert r.get_camera() is None and r.get_volume() is None
+
+
+def test_getters_return_stored_objects():
+    cfg, light = RenderConfig.fast(), Light.default()
+    r = VolumeRenderer(8, 8, config=cfg, light=light)
+    vol = Volume(np.zeros((2, 2, 2), np.float32))
+    cam = Camera.front_view()
+    r.load_volume(vol)
+    r.set_camera(cam)
+    assert r.get_config() is cfg and r.get_light() is light and r.get_volume() is vol and r.get_camera() is cam
