@@ -8,6 +8,9 @@ override SHADING: u32 = 0u;
 override POINT_LIGHT: bool = false;
 override EARLY_TERMINATION: bool = true;
 override POWER_CORRECTION: bool = false;
+// true: the volume's format is filterable and the sampler interpolates;
+// false: trilinear by hand from textureLoad (R32Float without FLOAT32_FILTERABLE).
+override HW_FILTER: bool = true;
 
 struct Params {
     // Positions are relative to the box's min corner: the box is [0, extent].
@@ -37,20 +40,26 @@ struct Params {
 @group(0) @binding(0) var<uniform> P: Params;
 @group(0) @binding(1) var volume: texture_3d<f32>;
 @group(0) @binding(2) var normals: texture_3d<f32>;
-@group(0) @binding(3) var<storage, read> lut: array<vec4<f32>>;
+@group(0) @binding(3) var lut: texture_2d<f32>;
 @group(0) @binding(4) var<storage, read_write> out_rgba: array<vec4<f32>>;
 // Largest step count a ray needed when max_steps cut it short.
 @group(0) @binding(5) var<storage, read_write> truncated_needed: atomic<u32>;
+// Filtering when HW_FILTER, non-filtering otherwise (then never sampled).
+@group(0) @binding(6) var volume_sampler: sampler;
+// Always filtering: normals are stored as Rgba16Float.
+@group(0) @binding(7) var linear_sampler: sampler;
 
 fn is_nan(v: f32) -> bool {
     // Bit test: compilers may fold `v != v` away under fast-math assumptions.
     return (bitcast<u32>(v) & 0x7fffffffu) > 0x7f800000u;
 }
 
-// Texel-space coordinate (texture x = numpy axis 2) of a unit-box point.
-fn texel_coord(q: vec3<f32>) -> vec3<f32> {
-    let dims = vec3<f32>(textureDimensions(volume));
-    return q.zyx * dims - 0.5;
+// Texture coordinates put numpy axis 2 (world z) on the texture's x axis.
+fn value_at(tc: vec3<f32>) -> f32 {
+    if (HW_FILTER) {
+        return textureSampleLevel(volume, volume_sampler, tc, 0.0).r;
+    }
+    return trilinear(tc * vec3<f32>(textureDimensions(volume)) - 0.5);
 }
 
 // Cell-centred trilinear interpolation with clamp-to-edge, done by hand so it
@@ -78,48 +87,30 @@ fn trilinear(u: vec3<f32>) -> f32 {
     return y0 + (y1 - y0) * w.z;
 }
 
-fn supplied_normal(u: vec3<f32>) -> vec3<f32> {
-    let hi = vec3<i32>(textureDimensions(normals)) - 1;
-    let f = floor(u);
-    let w = u - f;
-    let a = clamp(vec3<i32>(f), vec3<i32>(0), hi);
-    let b = clamp(vec3<i32>(f) + 1, vec3<i32>(0), hi);
-    let c000 = textureLoad(normals, vec3<i32>(a.x, a.y, a.z), 0).xyz;
-    let c100 = textureLoad(normals, vec3<i32>(b.x, a.y, a.z), 0).xyz;
-    let c010 = textureLoad(normals, vec3<i32>(a.x, b.y, a.z), 0).xyz;
-    let c110 = textureLoad(normals, vec3<i32>(b.x, b.y, a.z), 0).xyz;
-    let c001 = textureLoad(normals, vec3<i32>(a.x, a.y, b.z), 0).xyz;
-    let c101 = textureLoad(normals, vec3<i32>(b.x, a.y, b.z), 0).xyz;
-    let c011 = textureLoad(normals, vec3<i32>(a.x, b.y, b.z), 0).xyz;
-    let c111 = textureLoad(normals, vec3<i32>(b.x, b.y, b.z), 0).xyz;
-    let x00 = mix(c000, c100, w.x);
-    let x10 = mix(c010, c110, w.x);
-    let x01 = mix(c001, c101, w.x);
-    let x11 = mix(c011, c111, w.x);
-    return mix(mix(x00, x10, w.y), mix(x01, x11, w.y), w.z);
+fn supplied_normal(tc: vec3<f32>) -> vec3<f32> {
+    return textureSampleLevel(normals, linear_sampler, tc, 0.0).xyz;
 }
 
-// Central differences one voxel apart, in world units; texel axes are (z, y, x).
-fn gradient(u: vec3<f32>) -> vec3<f32> {
-    let gx = trilinear(u + vec3<f32>(0.0, 0.0, 1.0)) - trilinear(u - vec3<f32>(0.0, 0.0, 1.0));
-    let gy = trilinear(u + vec3<f32>(0.0, 1.0, 0.0)) - trilinear(u - vec3<f32>(0.0, 1.0, 0.0));
-    let gz = trilinear(u + vec3<f32>(1.0, 0.0, 0.0)) - trilinear(u - vec3<f32>(1.0, 0.0, 0.0));
+// Central differences one voxel apart, in world units; texture axes are (z, y, x).
+fn gradient(tc: vec3<f32>) -> vec3<f32> {
+    let h = 1.0 / vec3<f32>(textureDimensions(volume));
+    let gx = value_at(tc + vec3<f32>(0.0, 0.0, h.z)) - value_at(tc - vec3<f32>(0.0, 0.0, h.z));
+    let gy = value_at(tc + vec3<f32>(0.0, h.y, 0.0)) - value_at(tc - vec3<f32>(0.0, h.y, 0.0));
+    let gz = value_at(tc + vec3<f32>(h.x, 0.0, 0.0)) - value_at(tc - vec3<f32>(h.x, 0.0, 0.0));
     return vec3<f32>(gx, gy, gz) * P.inv_two_spacing.xyz;
 }
 
+// Table entries sit at scalars m / (M - 1); texel centres at (m + 0.5) / M.
 fn eval_lut(v: f32) -> vec4<f32> {
-    let last = P.lut_size - 1u;
-    let x = clamp(v, 0.0, 1.0) * f32(last);
-    let i0 = min(u32(floor(x)), last);
-    let i1 = min(i0 + 1u, last);
-    return mix(lut[i0], lut[i1], x - f32(i0));
+    let m = f32(P.lut_size);
+    let x = clamp(v, 0.0, 1.0) * (m - 1.0);
+    return textureSampleLevel(lut, linear_sampler, vec2<f32>((x + 0.5) / m, 0.5), 0.0);
 }
 
 fn one_minus_exp_neg(x: f32) -> f32 {
-    if (x < 1e-3) {
-        return x * (1.0 - x * (0.5 - x * (1.0 / 6.0)));
-    }
-    return 1.0 - exp(-x);
+    // Series below 1e-3, where 1 - exp(-x) would cancel.
+    let series = x * (1.0 - x * (0.5 - x * (1.0 / 6.0)));
+    return select(1.0 - exp(-x), series, x < 1e-3);
 }
 
 fn corrected_alpha(a: f32, len_over_ref: f32) -> f32 {
@@ -206,28 +197,25 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     var color = vec3<f32>(0.0);
     var trans = 1.0;
     var stopped = false;
+    // The body avoids divergent `continue`s: on SIMD-style CPU drivers
+    // (lavapipe) a lane that skips work still waits for the others, and
+    // predicated code is cheaper than divergent control flow.
     for (var i = 0u; i < n; i++) {
         let s0 = t0 + f32(i) * P.step_size;
-        let seg = min(P.step_size, t1 - s0);
-        if (seg <= 0.0) {
-            break;
-        }
+        let seg = max(min(P.step_size, t1 - s0), 0.0);
         let p = o + d * (s0 + 0.5 * seg);
-        let u = texel_coord(p * P.inv_extent.xyz);
-        let v = trilinear(u);
-        if (is_nan(v)) {
-            continue;
-        }
-        let rgba = eval_lut(v);
-        if (!(rgba.a > 0.0)) {
-            continue;
-        }
-        let alpha = corrected_alpha(rgba.a, seg * P.inv_ref);
+        let tc = (p * P.inv_extent.xyz).zyx;
+        let v = value_at(tc);
+        let valid = !is_nan(v);
+        let rgba = eval_lut(select(0.0, v, valid));
+        let alpha = corrected_alpha(select(0.0, rgba.a, valid), seg * P.inv_ref);
         var intensity = P.ambient;
-        if (SHADING == 1u) {
-            intensity = light_intensity(supplied_normal(u), p);
-        } else if (SHADING == 2u) {
-            intensity = light_intensity(gradient(u), p);
+        if (SHADING != 0u && alpha > 0.0) {
+            if (SHADING == 1u) {
+                intensity = light_intensity(supplied_normal(tc), p);
+            } else {
+                intensity = light_intensity(gradient(tc), p);
+            }
         }
         color += (trans * alpha * intensity) * rgba.rgb;
         trans *= 1.0 - alpha;

@@ -35,7 +35,14 @@ fn ramp_lut() -> Vec<[f32; 4]> {
 }
 
 fn compare(frame: &Frame, label: &str) {
+    for shader_filtering in [false, true] {
+        compare_path(frame, &format!("{label} (shader filtering: {shader_filtering})"), shader_filtering);
+    }
+}
+
+fn compare_path(frame: &Frame, label: &str, shader_filtering: bool) {
     let mut gpu = GpuRenderer::new(frame.width, frame.height).expect("GPU");
+    gpu.shader_filtering = shader_filtering;
     gpu.set_volume(&frame.volume).unwrap();
     gpu.set_lut(frame.lut).unwrap();
     let (img, stats) = gpu.render(&frame.camera, &frame.light, &frame.config).unwrap();

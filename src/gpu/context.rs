@@ -75,7 +75,7 @@ impl GpuContext {
         // Ask for what the adapter really has: the defaults cap 3-D textures at
         // 2048 and storage buffers at 128 MiB, well below lavapipe and real GPUs.
         let limits = adapter.limits();
-        let wanted = wgpu::Features::TEXTURE_FORMAT_16BIT_NORM;
+        let wanted = wgpu::Features::TEXTURE_FORMAT_16BIT_NORM | wgpu::Features::FLOAT32_FILTERABLE;
         let features = adapter.features() & wanted;
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("pyvr"),

@@ -18,11 +18,14 @@ pub struct Variant {
     pub point_light: bool,
     pub early_termination: bool,
     pub correction: OpacityCorrection,
+    /// The sampler filters the volume (its format is filterable).
+    pub hw_filter: bool,
 }
 
 impl Variant {
-    pub fn new(shading: Shading, light: LightKind, early: bool, correction: OpacityCorrection) -> Self {
+    pub fn new(shading: Shading, light: LightKind, early: bool, correction: OpacityCorrection, hw_filter: bool) -> Self {
         Variant {
+            hw_filter,
             shading,
             // The light's kind only matters when a diffuse term is computed.
             point_light: shading != Shading::AmbientOnly && light == LightKind::Point,
@@ -31,7 +34,7 @@ impl Variant {
         }
     }
 
-    fn constants(&self) -> [(&'static str, f64); 4] {
+    fn constants(&self) -> [(&'static str, f64); 5] {
         let shading = match self.shading {
             Shading::AmbientOnly => 0.0,
             Shading::Normals => 1.0,
@@ -42,14 +45,21 @@ impl Variant {
             ("POINT_LIGHT", self.point_light as u32 as f64),
             ("EARLY_TERMINATION", self.early_termination as u32 as f64),
             ("POWER_CORRECTION", (self.correction == OpacityCorrection::Power) as u32 as f64),
+            ("HW_FILTER", self.hw_filter as u32 as f64),
         ]
     }
 }
 
+/// Bind-group layouts differ only in whether the volume is filterable.
+pub struct Layouts {
+    pub bind_group: wgpu::BindGroupLayout,
+    pipeline: wgpu::PipelineLayout,
+}
+
 pub struct Pipelines {
     module: wgpu::ShaderModule,
-    pub layout: wgpu::BindGroupLayout,
-    pipeline_layout: wgpu::PipelineLayout,
+    /// Indexed by `hw_filter as usize`.
+    pub layouts: [Layouts; 2],
     cache: Mutex<HashMap<Variant, wgpu::ComputePipeline>>,
 }
 
@@ -66,14 +76,27 @@ fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
     }
 }
 
-fn texture3d(binding: u32) -> wgpu::BindGroupLayoutEntry {
+fn sampler(binding: u32, filtering: bool) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding,
         visibility: wgpu::ShaderStages::COMPUTE,
-        // Unfilterable accepts every float-readable format (R8Unorm, R16Unorm,
-        // R32Float, Rgba16Float): filtering is done in the shader.
+        ty: wgpu::BindingType::Sampler(if filtering {
+            wgpu::SamplerBindingType::Filtering
+        } else {
+            wgpu::SamplerBindingType::NonFiltering
+        }),
+        count: None,
+    }
+}
+
+fn texture3d(binding: u32, filterable: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        // Unfilterable accepts every float-readable format; the shader then
+        // interpolates by hand.
         ty: wgpu::BindingType::Texture {
-            sample_type: wgpu::TextureSampleType::Float { filterable: false },
+            sample_type: wgpu::TextureSampleType::Float { filterable },
             view_dimension: wgpu::TextureViewDimension::D3,
             multisampled: false,
         },
@@ -89,32 +112,47 @@ impl Pipelines {
                 label: Some("raymarch.wgsl"),
                 source: wgpu::ShaderSource::Wgsl(SHADER_SOURCE.into()),
             });
-            let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("raymarch"),
-                entries: &[
-                    wgpu::BindGroupLayoutEntry {
-                        binding: 0,
-                        visibility: wgpu::ShaderStages::COMPUTE,
-                        ty: wgpu::BindingType::Buffer {
-                            ty: wgpu::BufferBindingType::Uniform,
-                            has_dynamic_offset: false,
-                            min_binding_size: None,
+            let make = |filterable: bool| {
+                let bind_group = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                    label: Some("raymarch"),
+                    entries: &[
+                        wgpu::BindGroupLayoutEntry {
+                            binding: 0,
+                            visibility: wgpu::ShaderStages::COMPUTE,
+                            ty: wgpu::BindingType::Buffer {
+                                ty: wgpu::BufferBindingType::Uniform,
+                                has_dynamic_offset: false,
+                                min_binding_size: None,
+                            },
+                            count: None,
                         },
-                        count: None,
-                    },
-                    texture3d(1),
-                    texture3d(2),
-                    storage(3, true),
-                    storage(4, false),
-                    storage(5, false),
-                ],
-            });
-            let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("raymarch"),
-                bind_group_layouts: &[Some(&layout)],
-                immediate_size: 0,
-            });
-            Pipelines { module, layout, pipeline_layout, cache: Mutex::new(HashMap::new()) }
+                        texture3d(1, filterable),
+                        texture3d(2, true),
+                        wgpu::BindGroupLayoutEntry {
+                            binding: 3,
+                            visibility: wgpu::ShaderStages::COMPUTE,
+                            ty: wgpu::BindingType::Texture {
+                                sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                                view_dimension: wgpu::TextureViewDimension::D2,
+                                multisampled: false,
+                            },
+                            count: None,
+                        },
+                        storage(4, false),
+                        storage(5, false),
+                        sampler(6, filterable),
+                        sampler(7, true),
+                    ],
+                });
+                let pipeline = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                    label: Some("raymarch"),
+                    bind_group_layouts: &[Some(&bind_group)],
+                    immediate_size: 0,
+                });
+                Layouts { bind_group, pipeline }
+            };
+            let layouts = [make(false), make(true)];
+            Pipelines { module, layouts, cache: Mutex::new(HashMap::new()) }
         })
     }
 
@@ -127,7 +165,7 @@ impl Pipelines {
         let p = ctx.scoped("building a ray-marching pipeline", || {
             ctx.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                 label: Some("raymarch"),
-                layout: Some(&self.pipeline_layout),
+                layout: Some(&self.layouts[v.hw_filter as usize].pipeline),
                 module: &self.module,
                 entry_point: Some("main"),
                 compilation_options: wgpu::PipelineCompilationOptions {
