@@ -156,73 +156,95 @@ def _basis(camera, width, height):
     return p, f, r * (width / height) * t, u * t
 
 
-def render_reference(volume, ctf, otf, camera, light, config, width, height, lut_size=None):
-    import moderngl
+class ReferenceRenderer:
+    """Uploads a volume and transfer function once; renders frames on demand
+    (so benchmarks can time frames apart from uploads)."""
 
-    ctx = _context()
-    prog = ctx.program(vertex_shader=VERTEX, fragment_shader=FRAGMENT)
-    data = np.asarray(volume.data)
-    if data.dtype == np.uint8:
-        vals = data.astype(np.float32) / 255.0
-    elif data.dtype == np.uint16:
-        vals = data.astype(np.float32) / 65535.0
-    else:
-        vals = data.astype(np.float32)
-    vals = np.where(np.isinf(vals), np.sign(vals) * np.float32(1e30), vals).astype(np.float32)
-    s0, s1, s2 = vals.shape
-    vol = ctx.texture3d((s2, s1, s0), 1, np.ascontiguousarray(vals).tobytes(), dtype="f4")
-    vol.filter = (moderngl.LINEAR, moderngl.LINEAR)
-    vol.repeat_x = vol.repeat_y = vol.repeat_z = False
-    if volume.normals is not None:
-        nr = np.ascontiguousarray(volume.normals, dtype=np.float32)
-        nrm = ctx.texture3d((s2, s1, s0), 3, nr.tobytes(), dtype="f4")
-    else:
-        nrm = ctx.texture3d((1, 1, 1), 3, np.zeros(3, np.float32).tobytes(), dtype="f4")
-    nrm.filter = (moderngl.LINEAR, moderngl.LINEAR)
-    nrm.repeat_x = nrm.repeat_y = nrm.repeat_z = False
-    m = lut_size or max(ctf.lut_size, otf.lut_size)
-    table = np.zeros((m, 4), np.float32)
-    table[:, :3] = ctf.to_lut(m)
-    table[:, 3] = otf.to_lut(m)
-    lut = ctx.texture((m, 1), 4, table.tobytes(), dtype="f4")
-    lut.filter = (moderngl.LINEAR, moderngl.LINEAR)
-    lut.repeat_x = lut.repeat_y = False
-    vol.use(0)
-    nrm.use(1)
-    lut.use(2)
-    bmin = np.asarray(volume.min_bounds, np.float64)
-    ext = np.asarray(volume.max_bounds, np.float64) - bmin
-    eye, f, r, u = _basis(camera, width, height)
-    diffuse = float(light.diffuse_intensity)
-    shading = 0 if diffuse == 0 else (1 if volume.normals is not None else 2)
-    ldir = np.asarray(light.target, np.float64) - np.asarray(light.position, np.float64)
-    ln = np.linalg.norm(ldir)
-    ldir = ldir / ln if ln > 0 else np.zeros(3)
-    uniforms = {
-        "vol": 0, "nrm": 1, "lut": 2,
-        "eye": tuple(eye - bmin), "fwd": tuple(f), "right": tuple(r), "upv": tuple(u),
-        "ext": tuple(ext), "dims": (float(s0), float(s1), float(s2)),
-        "viewport": (float(width), float(height)),
-        "step_size": float(config.step_size), "ref_step": float(config.reference_step_size),
-        "max_steps": int(config.max_steps), "early": int(bool(config.early_ray_termination)),
-        "threshold": float(config.opacity_threshold),
-        "power_form": int(getattr(config, "opacity_correction", "exponential") == "power"),
-        "shading": shading, "point_light": int(getattr(light, "kind", "directional") == "point"),
-        "light_pos": tuple(np.asarray(light.position, np.float64) - bmin), "light_dir": tuple(ldir),
-        "ambient": float(light.ambient_intensity), "diffuse": diffuse, "lut_size": float(m),
-    }
-    for k, v in uniforms.items():
-        if k in prog:
-            prog[k].value = v
-    quad = ctx.buffer(np.array([-1, -1, 1, -1, -1, 1, 1, 1], np.float32).tobytes())
-    vao = ctx.vertex_array(prog, [(quad, "2f", "pos")])
-    color = ctx.texture((width, height), 4, dtype="f4")
-    fbo = ctx.framebuffer([color])
-    fbo.use()
-    ctx.disable(moderngl.BLEND)
-    fbo.clear(0.0, 0.0, 0.0, 0.0)
-    vao.render(moderngl.TRIANGLE_STRIP)
-    out = np.frombuffer(fbo.read(components=4, dtype="f4"), np.float32).reshape(height, width, 4).copy()
-    for obj in (vao, quad, fbo, color, vol, nrm, lut, prog):
-        obj.release()
-    return out
+    def __init__(self, volume, ctf, otf, width, height, lut_size=None):
+        import moderngl
+
+        ctx = self.ctx = _context()
+        self.width, self.height = width, height
+        self.volume = volume
+        self.prog = ctx.program(vertex_shader=VERTEX, fragment_shader=FRAGMENT)
+        data = np.asarray(volume.data)
+        if data.dtype == np.uint8:
+            vals = data.astype(np.float32) / 255.0
+        elif data.dtype == np.uint16:
+            vals = data.astype(np.float32) / 65535.0
+        else:
+            vals = data.astype(np.float32)
+        vals = np.where(np.isinf(vals), np.sign(vals) * np.float32(1e30), vals).astype(np.float32)
+        s0, s1, s2 = self.dims = vals.shape
+        self.vol = ctx.texture3d((s2, s1, s0), 1, np.ascontiguousarray(vals).tobytes(), dtype="f4")
+        if volume.normals is not None:
+            nr = np.ascontiguousarray(volume.normals, dtype=np.float32)
+            self.nrm = ctx.texture3d((s2, s1, s0), 3, nr.tobytes(), dtype="f4")
+        else:
+            self.nrm = ctx.texture3d((1, 1, 1), 3, np.zeros(3, np.float32).tobytes(), dtype="f4")
+        m = self.lut_size = lut_size or max(ctf.lut_size, otf.lut_size)
+        table = np.zeros((m, 4), np.float32)
+        table[:, :3] = ctf.to_lut(m)
+        table[:, 3] = otf.to_lut(m)
+        self.lut = ctx.texture((m, 1), 4, table.tobytes(), dtype="f4")
+        for tex in (self.vol, self.nrm, self.lut):
+            tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
+            tex.repeat_x = tex.repeat_y = False
+        for tex in (self.vol, self.nrm):
+            tex.repeat_z = False
+        self.quad = ctx.buffer(np.array([-1, -1, 1, -1, -1, 1, 1, 1], np.float32).tobytes())
+        self.vao = ctx.vertex_array(self.prog, [(self.quad, "2f", "pos")])
+        self.color = ctx.texture((width, height), 4, dtype="f4")
+        self.fbo = ctx.framebuffer([self.color])
+
+    def render(self, camera, light, config):
+        import moderngl
+
+        ctx, volume = self.ctx, self.volume
+        width, height = self.width, self.height
+        s0, s1, s2 = self.dims
+        self.vol.use(0)
+        self.nrm.use(1)
+        self.lut.use(2)
+        bmin = np.asarray(volume.min_bounds, np.float64)
+        ext = np.asarray(volume.max_bounds, np.float64) - bmin
+        eye, f, r, u = _basis(camera, width, height)
+        diffuse = float(light.diffuse_intensity)
+        shading = 0 if diffuse == 0 else (1 if volume.normals is not None else 2)
+        ldir = np.asarray(light.target, np.float64) - np.asarray(light.position, np.float64)
+        ln = np.linalg.norm(ldir)
+        ldir = ldir / ln if ln > 0 else np.zeros(3)
+        uniforms = {
+            "vol": 0, "nrm": 1, "lut": 2,
+            "eye": tuple(eye - bmin), "fwd": tuple(f), "right": tuple(r), "upv": tuple(u),
+            "ext": tuple(ext), "dims": (float(s0), float(s1), float(s2)),
+            "viewport": (float(width), float(height)),
+            "step_size": float(config.step_size), "ref_step": float(config.reference_step_size),
+            "max_steps": int(config.max_steps), "early": int(bool(config.early_ray_termination)),
+            "threshold": float(config.opacity_threshold),
+            "power_form": int(getattr(config, "opacity_correction", "exponential") == "power"),
+            "shading": shading, "point_light": int(getattr(light, "kind", "directional") == "point"),
+            "light_pos": tuple(np.asarray(light.position, np.float64) - bmin), "light_dir": tuple(ldir),
+            "ambient": float(light.ambient_intensity), "diffuse": diffuse, "lut_size": float(self.lut_size),
+        }
+        for k, v in uniforms.items():
+            if k in self.prog:
+                self.prog[k].value = v
+        self.fbo.use()
+        ctx.disable(moderngl.BLEND)
+        self.fbo.clear(0.0, 0.0, 0.0, 0.0)
+        self.vao.render(moderngl.TRIANGLE_STRIP)
+        raw = self.fbo.read(components=4, dtype="f4")
+        return np.frombuffer(raw, np.float32).reshape(height, width, 4).copy()
+
+    def release(self):
+        for obj in (self.vao, self.quad, self.fbo, self.color, self.vol, self.nrm, self.lut, self.prog):
+            obj.release()
+
+
+def render_reference(volume, ctf, otf, camera, light, config, width, height, lut_size=None):
+    ref = ReferenceRenderer(volume, ctf, otf, width, height, lut_size)
+    try:
+        return ref.render(camera, light, config)
+    finally:
+        ref.release()

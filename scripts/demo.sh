@@ -1,0 +1,8 @@
+#!/usr/bin/env bash
+# Set up (see setup.sh), then run the main job: pyvr's benchmark scene
+# (256^3 double_sphere with normals, 512x512) at every preset; writes
+# out/benchmark_<preset>.png and prints ms per frame.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/setup.sh
+.venv/bin/python examples/benchmark.py "$@"

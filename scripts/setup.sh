@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# Installs everything pyvr needs on a fresh Debian/Ubuntu machine that has
+# Rust (cargo) and Python 3.11+: a software Vulkan driver when no GPU driver
+# is present, Mesa's EGL (for the OpenGL reference renderer in the tests),
+# a virtual environment in .venv, and the release build of pyvr into it.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+SUDO=""
+if [ "$(id -u)" != 0 ] && command -v sudo >/dev/null; then SUDO="sudo"; fi
+
+need=()
+ls /usr/share/vulkan/icd.d/*.json /etc/vulkan/icd.d/*.json >/dev/null 2>&1 || need+=(mesa-vulkan-drivers)
+for pkg in libvulkan1 libegl1 libegl-mesa0 libgl1-mesa-dri; do
+    dpkg -s "$pkg" >/dev/null 2>&1 || need+=("$pkg")
+done
+if [ ${#need[@]} -gt 0 ]; then
+    echo "== installing system packages: ${need[*]}"
+    $SUDO apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${need[@]}" >/dev/null
+fi
+
+PY=${PYTHON:-python3}
+if [ ! -x .venv/bin/python ]; then
+    echo "== creating .venv"
+    "$PY" -m venv .venv
+fi
+echo "== installing Python packages"
+.venv/bin/python -m pip install -q --upgrade pip
+.venv/bin/python -m pip install -q "maturin>=1.7,<2" numpy scipy pillow matplotlib moderngl pytest
+
+echo "== building pyvr (release)"
+start=$(date +%s)
+.venv/bin/maturin develop --release -q
+echo "== build took $(( $(date +%s) - start )) s"
