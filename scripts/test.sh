@@ -1,9 +1,11 @@
 #!/usr/bin/env bash
 # Runs every test: the Rust core (cargo test, including the GPU path against
 # the f64 integrator) and the Python suite (API, closed forms, and the
-# moderngl reference cross-validation). Needs scripts/setup.sh to have run.
+# moderngl reference cross-validation). Runs scripts/setup.sh first, which
+# installs what is missing and rebuilds pyvr if its sources changed.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+bash scripts/setup.sh
 export PYVR_BACKEND=${PYVR_BACKEND:-vulkan}
 echo "== cargo test"
 cargo test --quiet

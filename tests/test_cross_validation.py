@@ -128,6 +128,6 @@ def test_matches_moderngl_reference(name):
     for c in range(4):
         mean = diff[..., c].mean()
         p999 = np.percentile(diff[..., c], 99.9)
-        print(f"{name} channel {c}: mean {mean:.4f}, p99.9 {p999:.2f} levels")
+        print(f"{name} channel {c}: mean {mean:.4f}, p99.9 {p999:.2f}, max {diff[..., c].max():.0f} levels")
         assert mean < 0.5, f"{name} channel {c}: mean diff {mean:.3f} levels"
         assert p999 < 3.0, f"{name} channel {c}: 99.9th percentile {p999:.2f} levels"

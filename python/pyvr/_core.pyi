@@ -1,0 +1,101 @@
+"""Type stubs for the Rust extension module pyvr._core."""
+
+from typing import Any, Dict, List, Optional, Tuple
+
+import numpy as np
+import numpy.typing as npt
+
+Vec3 = Tuple[float, float, float]
+
+__version__: str
+
+class RenderConfig:
+    step_size: float
+    max_steps: int
+    early_ray_termination: bool
+    opacity_threshold: float
+    reference_step_size: float
+    opacity_correction: str
+    def __init__(
+        self,
+        step_size: float = 0.01,
+        max_steps: int = 500,
+        early_ray_termination: bool = True,
+        opacity_threshold: float = 0.95,
+        reference_step_size: float = 0.01,
+        opacity_correction: str = "exponential",
+    ) -> None: ...
+    def validate(self) -> None: ...
+    @classmethod
+    def preview(cls) -> "RenderConfig": ...
+    @classmethod
+    def fast(cls) -> "RenderConfig": ...
+    @classmethod
+    def balanced(cls) -> "RenderConfig": ...
+    @classmethod
+    def high_quality(cls) -> "RenderConfig": ...
+    @classmethod
+    def ultra_quality(cls) -> "RenderConfig": ...
+    @classmethod
+    def custom(
+        cls, step_size: float, max_steps: int, early_ray_termination: bool = True, opacity_threshold: float = 0.95
+    ) -> "RenderConfig": ...
+    def copy(self) -> "RenderConfig": ...
+    def with_step_size(self, step_size: float) -> "RenderConfig": ...
+    def with_max_steps(self, max_steps: int) -> "RenderConfig": ...
+    def estimate_samples_per_ray(self) -> int: ...
+    def estimate_render_time_relative(self) -> float: ...
+    def __eq__(self, other: object) -> bool: ...
+
+class Renderer:
+    width: int
+    height: int
+    device: str
+    def __init__(self, width: int, height: int) -> None: ...
+    def resize(self, width: int, height: int) -> None: ...
+    def set_volume(
+        self, data: npt.NDArray[Any], normals: Optional[npt.NDArray[np.float32]], min_bounds: Vec3, max_bounds: Vec3
+    ) -> None: ...
+    def set_bounds(self, min_bounds: Vec3, max_bounds: Vec3) -> None: ...
+    def set_lut(self, lut: npt.NDArray[np.float32]) -> None: ...
+    def render(
+        self,
+        cam_position: Vec3,
+        cam_target: Vec3,
+        cam_up: Vec3,
+        fov: float,
+        light_position: Vec3,
+        light_target: Vec3,
+        ambient: float,
+        diffuse: float,
+        light_kind: str,
+        config: RenderConfig,
+    ) -> Tuple[npt.NDArray[np.float32], Dict[str, int]]: ...
+    def counters(self) -> Dict[str, int]: ...
+
+def quantize(rgba: npt.NDArray[np.float32], straight: bool = True) -> npt.NDArray[np.uint8]: ...
+def integrate_reference(
+    data: npt.NDArray[Any],
+    normals: Optional[npt.NDArray[np.float32]],
+    min_bounds: Vec3,
+    max_bounds: Vec3,
+    lut: npt.NDArray[np.float32],
+    cam_position: Vec3,
+    cam_target: Vec3,
+    cam_up: Vec3,
+    fov: float,
+    light_position: Vec3,
+    light_target: Vec3,
+    ambient: float,
+    diffuse: float,
+    light_kind: str,
+    config: RenderConfig,
+    width: int,
+    height: int,
+) -> Tuple[npt.NDArray[np.float64], int]: ...
+def lut_from_points(
+    scalars: npt.NDArray[np.float64], values: npt.NDArray[np.float64], size: int
+) -> npt.NDArray[np.float32]: ...
+def colormap_table(name: str) -> Optional[npt.NDArray[np.float64]]: ...
+def colormap_names() -> List[str]: ...
+def device_info() -> str: ...
