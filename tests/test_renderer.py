@@ -205,3 +205,48 @@ def test_getters_return_stored_objects():
     r.load_volume(vol)
     r.set_camera(cam)
     assert r.get_config() is cfg and r.get_light() is light and r.get_volume() is vol and r.get_camera() is cam
+
+
+def test_core_rejects_bad_arguments_with_python_errors():
+    """The extension checks its own inputs: no panic reaches Python."""
+    with pytest.raises(ValueError, match="width and height must be positive"):
+        _core.Renderer(0, 4)
+    r = _core.Renderer(4, 4)
+    with pytest.raises(TypeError, match="float32, uint8 or uint16"):
+        r.set_volume(np.zeros((2, 2, 2), np.float64), None, (0, 0, 0), (1, 1, 1))
+    with pytest.raises(TypeError):
+        r.set_volume(np.zeros((2, 2), np.float32), None, (0, 0, 0), (1, 1, 1))
+    with pytest.raises(ValueError, match="C-contiguous"):
+        r.set_volume(np.zeros((4, 4, 4), np.float32)[::2], None, (0, 0, 0), (1, 1, 1))
+    with pytest.raises(ValueError, match="max_bounds must be greater"):
+        r.set_volume(np.zeros((2, 2, 2), np.float32), None, (0, 0, 0), (1, 0, 1))
+    with pytest.raises(ValueError, match="Normal volume must have shape"):
+        r.set_volume(np.zeros((2, 2, 2), np.float32), np.zeros((2, 2, 3, 3), np.float32), (0, 0, 0), (1, 1, 1))
+    with pytest.raises(ValueError, match=r"shape \(M, 4\)"):
+        r.set_lut(np.zeros((5, 3), np.float32))
+    with pytest.raises(ValueError, match="finite"):
+        r.set_lut(np.full((2, 4), np.nan, np.float32))
+    args = ((3, 0, 0), (0, 0, 0), (0, 0, 1), 0.8, (1, 1, 1), (0, 0, 0), 0.2, 0.8, "directional", RenderConfig())
+    with pytest.raises(ValueError, match="no volume loaded"):
+        r.render(*args)
+    r.set_volume(np.zeros((2, 2, 2), np.float32), None, (0, 0, 0), (1, 1, 1))
+    with pytest.raises(ValueError, match="no transfer function"):
+        r.render(*args)
+    r.set_lut(np.zeros((2, 4), np.float32))
+    with pytest.raises(ValueError, match="light kind"):
+        r.render(*args[:8], "spot", args[9])
+    with pytest.raises(ValueError, match="fov"):
+        r.render(args[0], args[1], args[2], 3.5, *args[4:])
+    with pytest.raises(ValueError, match="camera position must differ"):
+        r.render((0, 0, 0), *args[1:])
+    with pytest.raises(ValueError, match="finite"):
+        r.render((np.nan, 0, 0), *args[1:])
+    img, stats = r.render(*args)
+    assert img.shape == (4, 4, 4) and stats["truncated_needed"] == 0
+    with pytest.raises(ValueError, match="sorted"):
+        _core.lut_from_points(np.array([0.5, 0.1]), np.zeros((2, 1)), 4)
+    with pytest.raises(ValueError, match="at least 1"):
+        _core.lut_from_points(np.array([0.0, 1.0]), np.zeros((2, 1)), 0)
+    with pytest.raises(ValueError, match=r"shape \(H, W, 4\)"):
+        _core.quantize(np.zeros((2, 2, 3), np.float32))
+    assert _core.colormap_table("nope") is None
