@@ -10,7 +10,11 @@ SUDO=""
 if [ "$(id -u)" != 0 ] && command -v sudo >/dev/null; then SUDO="sudo"; fi
 
 need=()
-ls /usr/share/vulkan/icd.d/*.json /etc/vulkan/icd.d/*.json >/dev/null 2>&1 || need+=(mesa-vulkan-drivers)
+have_icd=false
+for f in /usr/share/vulkan/icd.d/*.json /etc/vulkan/icd.d/*.json; do
+    [ -e "$f" ] && have_icd=true
+done
+$have_icd || need+=(mesa-vulkan-drivers)
 for pkg in libvulkan1 libegl1 libegl-mesa0 libgl1-mesa-dri; do
     dpkg -s "$pkg" >/dev/null 2>&1 || need+=("$pkg")
 done
