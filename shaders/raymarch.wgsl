@@ -12,6 +12,9 @@ override POWER_CORRECTION: bool = false;
 // false: trilinear by hand from textureLoad (R32Float without FLOAT32_FILTERABLE).
 override HW_FILTER: bool = true;
 
+// Samples per partial sum (a power of two).
+const BLOCK: u32 = 256u;
+
 struct Params {
     // Positions are relative to the box's min corner: the box is [0, extent].
     cam_pos: vec4<f32>,
@@ -33,6 +36,13 @@ struct Params {
     height: u32,
     lut_size: u32,
     light_valid: u32,       // directional light with a defined direction
+    // Long rays are marched over several dispatches of at most pass_steps
+    // steps each (drivers cap loop trip counts and dispatch durations);
+    // between passes each ray's state waits in `ray_state`.
+    pass_start: u32,
+    pass_steps: u32,
+    first_pass: u32,
+    last_pass: u32,
     _pad0: u32,
     _pad1: u32,
 };
@@ -48,6 +58,10 @@ struct Params {
 @group(0) @binding(6) var volume_sampler: sampler;
 // Always filtering: normals are stored as Rgba16Float.
 @group(0) @binding(7) var linear_sampler: sampler;
+// Per pixel, between passes: (colour, tau).
+@group(0) @binding(8) var<storage, read_write> ray_state: array<vec4<f32>>;
+// Per pixel: 1 once the ray is finished (written by every ray in the first pass).
+@group(0) @binding(9) var<storage, read_write> ray_done: array<u32>;
 
 fn is_nan(v: f32) -> bool {
     // Bit test: compilers may fold `v != v` away under fast-math assumptions.
@@ -113,21 +127,18 @@ fn one_minus_exp_neg(x: f32) -> f32 {
     return select(1.0 - exp(-x), series, x < 1e-3);
 }
 
-fn corrected_alpha(a: f32, len_over_ref: f32) -> f32 {
+// Extinction per reference step for a transfer-function opacity `a`:
+// exponential form sigma = a; power form sigma = -ln(1 - a) (inf at a = 1).
+fn extinction(a: f32) -> f32 {
     if (POWER_CORRECTION) {
         if (a >= 1.0) {
-            return 1.0;
+            // Opaque; a huge finite value, since shaders need not honour inf.
+            return 1.0e30;
         }
-        // -ln(1 - a), accurate for small a as well.
-        var sigma: f32;
-        if (a < 1e-3) {
-            sigma = a * (1.0 + a * (0.5 + a * (1.0 / 3.0)));
-        } else {
-            sigma = -log(1.0 - a);
-        }
-        return one_minus_exp_neg(sigma * len_over_ref);
+        let series = a * (1.0 + a * (0.5 + a * (1.0 / 3.0)));
+        return select(-log(1.0 - a), series, a < 1e-3);
     }
-    return one_minus_exp_neg(a * len_over_ref);
+    return a;
 }
 
 fn light_intensity(n: vec3<f32>, p: vec3<f32>) -> f32 {
@@ -184,8 +195,15 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             t1 = min(t1, max(ta, tb));
         }
     }
+    let single_pass = P.first_pass == 1u && P.last_pass == 1u;
+    if (P.first_pass == 0u && ray_done[idx] != 0u) {
+        return;
+    }
     if (!hit || t0 > t1 || t1 <= 0.0) {
         out_rgba[idx] = vec4<f32>(0.0);
+        if (!single_pass) {
+            ray_done[idx] = 1u;
+        }
         return;
     }
     t0 = max(t0, 0.0);
@@ -194,13 +212,28 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let needed = u32(min(needed_f, 4.0e9));
     let n = min(needed, P.max_steps);
 
+    // Transmittance is exp(-tau) of the optical depth summed so far, not a
+    // running product of (1 - alpha): a product loses every segment whose
+    // alpha is below f32's half-ulp of 1 (6e-8), which tiny steps produce.
+    // Sums are blocked: BLOCK samples add into a small partial sum that is
+    // folded into the total, so a million tiny terms keep their precision
+    // (compensated sums would be undone by compilers that reassociate).
     var color = vec3<f32>(0.0);
-    var trans = 1.0;
+    var tau = 0.0;
+    if (P.first_pass == 0u) {
+        let st = ray_state[idx];
+        color = st.xyz;
+        tau = st.w;
+    }
+    var color_b = vec3<f32>(0.0);
+    var tau_b = 0.0;
+    var trans = exp(-tau);
     var stopped = false;
-    // The body avoids divergent `continue`s: on SIMD-style CPU drivers
-    // (lavapipe) a lane that skips work still waits for the others, and
-    // predicated code is cheaper than divergent control flow.
-    for (var i = 0u; i < n; i++) {
+    var end = n;
+    if (P.last_pass == 0u) {
+        end = min(n, P.pass_start + P.pass_steps);
+    }
+    for (var i = P.pass_start; i < end; i++) {
         let s0 = t0 + f32(i) * P.step_size;
         let seg = max(min(P.step_size, t1 - s0), 0.0);
         let p = o + d * (s0 + 0.5 * seg);
@@ -208,7 +241,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         let v = value_at(tc);
         let valid = !is_nan(v);
         let rgba = eval_lut(select(0.0, v, valid));
-        let alpha = corrected_alpha(select(0.0, rgba.a, valid), seg * P.inv_ref);
+        let sigma = extinction(select(0.0, rgba.a, valid));
+        let x = select(0.0, min(sigma * (seg * P.inv_ref), 1.0e30), sigma > 0.0 && seg > 0.0);
+        let alpha = one_minus_exp_neg(x);
         var intensity = P.ambient;
         if (SHADING != 0u && alpha > 0.0) {
             if (SHADING == 1u) {
@@ -217,19 +252,38 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                 intensity = light_intensity(gradient(tc), p);
             }
         }
-        color += (trans * alpha * intensity) * rgba.rgb;
-        trans *= 1.0 - alpha;
-        if (EARLY_TERMINATION && 1.0 - trans >= P.threshold) {
+        color_b += (trans * alpha * intensity) * rgba.rgb;
+        tau_b += x;
+        if ((i & (BLOCK - 1u)) == BLOCK - 1u) {
+            color += color_b;
+            tau += tau_b;
+            color_b = vec3<f32>(0.0);
+            tau_b = 0.0;
+        }
+        trans = exp(-(tau + tau_b));
+        // Threshold 0 means: stop at the first sample that is not empty.
+        if (EARLY_TERMINATION && tau + tau_b > 0.0 && 1.0 - trans >= P.threshold) {
             stopped = true;
             break;
         }
-        // Below this nothing behind can show in 8 bits or even float; stop
-        // before transmittance sinks into denormals.
+        // Below this nothing behind can show in 8 bits or even float.
         if (trans < 1e-30) {
             trans = 0.0;
             stopped = true;
             break;
         }
+    }
+    color += color_b;
+    if (!stopped && end < n) {
+        // Continues in the next pass.
+        ray_state[idx] = vec4<f32>(color, tau + tau_b);
+        if (P.first_pass == 1u) {
+            ray_done[idx] = 0u;
+        }
+        return;
+    }
+    if (!single_pass) {
+        ray_done[idx] = 1u;
     }
     if (!stopped && n < needed) {
         atomicMax(&truncated_needed, needed);

@@ -40,22 +40,33 @@ pub fn one_minus_exp_neg(x: f64) -> f64 {
     -(-x).exp_m1()
 }
 
-/// Opacity of a segment of length `len` for transfer-function opacity `a`.
+/// Extinction per reference step for transfer-function opacity `a`: `a`
+/// itself (exponential form) or `-ln(1 - a)` (power form; infinite at 1).
 #[inline]
-pub fn corrected_alpha(a: f64, len_over_ref: f64, form: OpacityCorrection) -> f64 {
+pub fn extinction(a: f64, form: OpacityCorrection) -> f64 {
     if a <= 0.0 {
         return 0.0;
     }
     match form {
-        OpacityCorrection::Exponential => one_minus_exp_neg(a * len_over_ref),
+        OpacityCorrection::Exponential => a,
         OpacityCorrection::Power => {
             if a >= 1.0 {
-                1.0
+                f64::INFINITY
             } else {
-                one_minus_exp_neg(-(-a).ln_1p() * len_over_ref)
+                -(-a).ln_1p()
             }
         }
     }
+}
+
+/// Opacity of a segment of length `len` for transfer-function opacity `a`.
+#[inline]
+pub fn corrected_alpha(a: f64, len_over_ref: f64, form: OpacityCorrection) -> f64 {
+    let sigma = extinction(a, form);
+    if sigma == 0.0 || len_over_ref <= 0.0 {
+        return 0.0;
+    }
+    one_minus_exp_neg(sigma * len_over_ref)
 }
 
 pub fn integrate_ray(frame: &Frame, origin: DVec3, dir: DVec3) -> RayResult {
@@ -69,6 +80,7 @@ pub fn integrate_ray(frame: &Frame, origin: DVec3, dir: DVec3) -> RayResult {
     let n = needed.min(cfg.max_steps.max(0) as u64);
     let shading = Shading::choose(&frame.light, vol.normals.is_some());
     let mut c = [0.0f64; 3];
+    let mut tau = 0.0f64;
     let mut t = 1.0f64;
     let mut stopped_early = false;
     for i in 0..n {
@@ -84,10 +96,12 @@ pub fn integrate_ray(frame: &Frame, origin: DVec3, dir: DVec3) -> RayResult {
             continue;
         }
         let rgba = eval_lut(frame.lut, v);
-        let a = corrected_alpha(rgba[3], seg / cfg.reference_step_size, cfg.opacity_correction);
-        if a <= 0.0 {
+        let sigma = extinction(rgba[3], cfg.opacity_correction);
+        if sigma <= 0.0 {
             continue;
         }
+        let x = sigma * (seg / cfg.reference_step_size);
+        let a = one_minus_exp_neg(x);
         let normal = match shading {
             Shading::AmbientOnly => None,
             Shading::Normals => vol.normal(q),
@@ -98,7 +112,9 @@ pub fn integrate_ray(frame: &Frame, origin: DVec3, dir: DVec3) -> RayResult {
         for k in 0..3 {
             c[k] += w * rgba[k];
         }
-        t *= 1.0 - a;
+        // Transmittance from the summed optical depth, as the shader does.
+        tau += x;
+        t = (-tau).exp();
         if cfg.early_ray_termination && 1.0 - t >= cfg.opacity_threshold {
             stopped_early = true;
             break;

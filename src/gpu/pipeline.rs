@@ -142,6 +142,8 @@ impl Pipelines {
                         storage(5, false),
                         sampler(6, filterable),
                         sampler(7, true),
+                        storage(8, false),
+                        storage(9, false),
                     ],
                 });
                 let pipeline = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {

@@ -35,8 +35,16 @@ struct Params {
     height: u32,
     lut_size: u32,
     light_valid: u32,
+    pass_start: u32,
+    pass_steps: u32,
+    first_pass: u32,
+    last_pass: u32,
     _pad: [u32; 2],
 }
+
+/// Steps one dispatch marches at most. Below lavapipe's 65535-iteration loop
+/// cap, and short enough that a pass stays far from GPU watchdog timeouts.
+pub const PASS_STEPS: u32 = 16384;
 
 fn v4(v: DVec3) -> [f32; 4] {
     [v.x as f32, v.y as f32, v.z as f32, 0.0]
@@ -58,6 +66,28 @@ struct Output {
     readback: wgpu::Buffer,
 }
 
+/// Where rays wait between passes: 16 bytes of state and a done flag per
+/// pixel. A one-pixel placeholder pair is bound while every frame fits one pass.
+struct RayState {
+    state: wgpu::Buffer,
+    done: wgpu::Buffer,
+    pixels: u64,
+}
+
+impl RayState {
+    fn new(device: &wgpu::Device, pixels: u64) -> RayState {
+        let buf = |label, size| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size,
+                usage: wgpu::BufferUsages::STORAGE,
+                mapped_at_creation: false,
+            })
+        };
+        RayState { state: buf("ray state", pixels * 16), done: buf("ray done", pixels * 4), pixels }
+    }
+}
+
 /// What one frame did, for tests and benchmarks.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct FrameStats {
@@ -66,6 +96,8 @@ pub struct FrameStats {
     /// Bytes written to the GPU for this frame (uniforms only, unless a
     /// volume, LUT or image size changed since the last frame).
     pub uploaded_bytes: u64,
+    /// Dispatches the frame took (rays longer than PASS_STEPS need several).
+    pub passes: u32,
 }
 
 /// Counters over the renderer's life.
@@ -96,6 +128,7 @@ pub struct GpuRenderer {
     pub shader_filtering: bool,
     lut: Option<(wgpu::TextureView, u32)>,
     output: Option<Output>,
+    ray_state: RayState,
     bind_group: Option<wgpu::BindGroup>,
     pending_upload: u64,
     pub counters: Counters,
@@ -157,6 +190,7 @@ impl GpuRenderer {
             })
         };
         let volume_samplers = [sampler(wgpu::FilterMode::Nearest), sampler(wgpu::FilterMode::Linear)];
+        let ray_state = ctx.scoped("allocating ray state", || RayState::new(device, 1))?;
         let linear_sampler = sampler(wgpu::FilterMode::Linear);
         let mut r = GpuRenderer {
             ctx,
@@ -174,6 +208,7 @@ impl GpuRenderer {
             shader_filtering: false,
             lut: None,
             output: None,
+            ray_state,
             bind_group: None,
             pending_upload: 0,
             counters: Counters::default(),
@@ -426,6 +461,10 @@ impl GpuRenderer {
             height: self.height,
             lut_size: self.lut.as_ref().map_or(1, |(_, n)| *n),
             light_valid: (light.kind == LightKind::Directional && light_dir != DVec3::ZERO) as u32,
+            pass_start: 0,
+            pass_steps: PASS_STEPS,
+            first_pass: 1,
+            last_pass: 1,
             _pad: [0; 2],
         })
     }
@@ -450,6 +489,24 @@ impl GpuRenderer {
         cfg.validate().map_err(|e| GpuError(e.0))?;
         let params = self.params(vol, camera, light, cfg)?;
         let shading = Shading::choose(light, vol.normals.is_some());
+        // An upper bound on any ray's step count decides how many passes.
+        let longest = vol.bounds.max_chord_from(camera.position);
+        let max_n = cfg.steps_for_length(longest).saturating_add(2).min(params.max_steps as u64);
+        let passes = max_n.div_ceil(PASS_STEPS as u64).max(1) as u32;
+        let pixels = self.width as u64 * self.height as u64;
+        if passes > 1 && self.ray_state.pixels < pixels {
+            let limit = (self.ctx.limits.max_storage_buffer_binding_size as u64).min(self.ctx.limits.max_buffer_size);
+            if pixels * 16 > limit {
+                return Err(GpuError(format!(
+                    "rays of up to {max_n} steps are marched in passes, which need 16 bytes per pixel: \
+                     {}x{} is over this device's limit of {limit} bytes; use fewer pixels or fewer steps",
+                    self.width, self.height
+                )));
+            }
+            let device = &self.ctx.device;
+            self.ray_state = self.ctx.scoped("allocating ray state", || RayState::new(device, pixels))?;
+            self.bind_group = None;
+        }
         let hw_filter = vol.filterable && !self.shader_filtering;
         let variant = Variant::new(shading, light.kind, cfg.early_ray_termination, cfg.opacity_correction, hw_filter);
         let pipeline = self.pipelines.get(&self.ctx, variant)?;
@@ -477,6 +534,8 @@ impl GpuRenderer {
                             resource: wgpu::BindingResource::Sampler(&self.volume_samplers[hw_filter as usize]),
                         },
                         wgpu::BindGroupEntry { binding: 7, resource: wgpu::BindingResource::Sampler(&self.linear_sampler) },
+                        wgpu::BindGroupEntry { binding: 8, resource: self.ray_state.state.as_entire_binding() },
+                        wgpu::BindGroupEntry { binding: 9, resource: self.ray_state.done.as_entire_binding() },
                     ],
                 })
             })?;
@@ -486,25 +545,34 @@ impl GpuRenderer {
         let bind_group = self.bind_group.as_ref().expect("set above");
         let output = self.output.as_ref().expect("resize() always leaves an output");
         let queue = &ctx.queue;
-        queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&params));
         queue.write_buffer(&self.stats, 0, &[0u8; 4]);
-        let uploaded = self.pending_upload + std::mem::size_of::<Params>() as u64 + 4;
+        let uploaded = self.pending_upload + passes as u64 * std::mem::size_of::<Params>() as u64 + 4;
         self.pending_upload = 0;
 
         let bytes = n as u64 * 4;
-        let result = ctx.scoped("rendering", || {
-            let mut enc = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
-            {
-                let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("raymarch"), timestamp_writes: None });
-                pass.set_pipeline(&pipeline);
-                pass.set_bind_group(0, bind_group, &[]);
-                pass.dispatch_workgroups(self.width.div_ceil(WORKGROUP), self.height.div_ceil(WORKGROUP), 1);
-            }
-            enc.copy_buffer_to_buffer(&output.storage, 0, &output.readback, 0, bytes);
-            enc.copy_buffer_to_buffer(&self.stats, 0, &self.stats_readback, 0, 4);
-            queue.submit([enc.finish()]);
-        });
-        result?;
+        for pass in 0..passes {
+            let mut p = params;
+            p.pass_start = pass * PASS_STEPS;
+            p.first_pass = (pass == 0) as u32;
+            p.last_pass = (pass + 1 == passes) as u32;
+            // Writes before a submit are ordered with it: each pass sees its own.
+            queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&p));
+            ctx.scoped("rendering", || {
+                let mut enc = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
+                {
+                    let mut cpass =
+                        enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("raymarch"), timestamp_writes: None });
+                    cpass.set_pipeline(&pipeline);
+                    cpass.set_bind_group(0, bind_group, &[]);
+                    cpass.dispatch_workgroups(self.width.div_ceil(WORKGROUP), self.height.div_ceil(WORKGROUP), 1);
+                }
+                if p.last_pass == 1 {
+                    enc.copy_buffer_to_buffer(&output.storage, 0, &output.readback, 0, bytes);
+                    enc.copy_buffer_to_buffer(&self.stats, 0, &self.stats_readback, 0, 4);
+                }
+                queue.submit([enc.finish()]);
+            })?;
+        }
         let image = output.readback.slice(..);
         let stat = self.stats_readback.slice(..);
         let (tx, rx) = std::sync::mpsc::channel();
@@ -539,7 +607,7 @@ impl GpuRenderer {
         self.stats_readback.unmap();
         self.counters.frames += 1;
         self.counters.uploaded_bytes += uploaded;
-        Ok(FrameStats { truncated_needed, uploaded_bytes: uploaded })
+        Ok(FrameStats { truncated_needed, uploaded_bytes: uploaded, passes })
     }
 
     pub fn render(&mut self, camera: &Camera, light: &Light, cfg: &RenderConfig) -> Result<(Vec<f32>, FrameStats), GpuError> {

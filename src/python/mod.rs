@@ -14,6 +14,20 @@ fn device_info() -> PyResult<String> {
         .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.0))
 }
 
+/// The limits that bound what can be rendered on this device.
+#[pyfunction]
+fn device_limits(py: Python<'_>) -> PyResult<Bound<'_, pyo3::types::PyDict>> {
+    let ctx = crate::gpu::GpuContext::get().map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.0))?;
+    let d = pyo3::types::PyDict::new(py);
+    let l = &ctx.limits;
+    d.set_item("max_texture_dimension_3d", l.max_texture_dimension_3d)?;
+    d.set_item("max_texture_dimension_2d", l.max_texture_dimension_2d)?;
+    d.set_item("max_storage_buffer_binding_size", l.max_storage_buffer_binding_size)?;
+    d.set_item("max_buffer_size", l.max_buffer_size)?;
+    d.set_item("max_image_pixels", (l.max_storage_buffer_binding_size as u64).min(l.max_buffer_size) / 16)?;
+    Ok(d)
+}
+
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<config::PyRenderConfig>()?;
@@ -24,6 +38,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(transfer::colormap_table, m)?)?;
     m.add_function(wrap_pyfunction!(transfer::colormap_names, m)?)?;
     m.add_function(wrap_pyfunction!(device_info, m)?)?;
+    m.add_function(wrap_pyfunction!(device_limits, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

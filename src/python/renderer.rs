@@ -200,6 +200,7 @@ impl PyRenderer {
         let d = PyDict::new(py);
         d.set_item("truncated_needed", stats.truncated_needed)?;
         d.set_item("uploaded_bytes", stats.uploaded_bytes)?;
+        d.set_item("passes", stats.passes)?;
         Ok((arr, d))
     }
 
