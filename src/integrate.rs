@@ -130,9 +130,70 @@ pub fn integrate_ray(frame: &Frame, origin: DVec3, dir: DVec3) -> RayResult {
     RayResult { rgba: [c[0], c[1], c[2], 1.0 - t], truncated_needed }
 }
 
+/// Composites the same segments as [`integrate_ray`] from the far end to the
+/// near one: `C = a I c + (1 - a) C`, `A = a + (1 - a) A`. Equal to
+/// front-to-back when early termination does not stop the ray; a check on
+/// both, since the two orders share no accumulation code.
+pub fn integrate_ray_back_to_front(frame: &Frame, origin: DVec3, dir: DVec3) -> RayResult {
+    let vol = &frame.volume;
+    let Some((t0, t1)) = vol.bounds.intersect(origin, dir) else {
+        return RayResult::default();
+    };
+    let cfg = &frame.config;
+    let step = cfg.step_size;
+    let needed = cfg.steps_for_length(t1 - t0);
+    let n = needed.min(cfg.max_steps.max(0) as u64);
+    let shading = Shading::choose(&frame.light, vol.normals.is_some());
+    let mut c = [0.0f64; 4];
+    for i in (0..n).rev() {
+        let s0 = t0 + i as f64 * step;
+        let seg = step.min(t1 - s0);
+        if seg <= 0.0 {
+            continue;
+        }
+        let p = origin + dir * (s0 + 0.5 * seg);
+        let q = vol.bounds.to_unit(p);
+        let v = vol.sample(q);
+        if v.is_nan() {
+            continue;
+        }
+        let rgba = eval_lut(frame.lut, v);
+        let a = corrected_alpha(rgba[3], seg / cfg.reference_step_size, cfg.opacity_correction);
+        if a <= 0.0 {
+            continue;
+        }
+        let normal = match shading {
+            Shading::AmbientOnly => None,
+            Shading::Normals => vol.normal(q),
+            Shading::Gradient => vol.gradient_normal(q),
+        };
+        let light = frame.light.intensity(normal, p);
+        for k in 0..3 {
+            c[k] = a * light * rgba[k] + (1.0 - a) * c[k];
+        }
+        c[3] = a + (1.0 - a) * c[3];
+    }
+    RayResult { rgba: c, truncated_needed: if n < needed { needed } else { 0 } }
+}
+
+/// Compositing order of the f64 integrator.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Order {
+    FrontToBack,
+    BackToFront,
+}
+
 /// Premultiplied RGBA per pixel, row 0 at the bottom; and the largest step
 /// count a truncated ray needed (0 when none was cut short).
 pub fn render(frame: &Frame) -> Result<(Vec<[f64; 4]>, u64), crate::scene::SceneError> {
+    render_ordered(frame, Order::FrontToBack)
+}
+
+pub fn render_ordered(frame: &Frame, order: Order) -> Result<(Vec<[f64; 4]>, u64), crate::scene::SceneError> {
+    let ray = match order {
+        Order::FrontToBack => integrate_ray,
+        Order::BackToFront => integrate_ray_back_to_front,
+    };
     let basis = frame.camera.basis(frame.width, frame.height)?;
     let (w, h) = (frame.width, frame.height);
     let mut out = vec![[0.0f64; 4]; w as usize * h as usize];
@@ -150,7 +211,7 @@ pub fn render(frame: &Frame) -> Result<(Vec<[f64; 4]>, u64), crate::scene::Scene
                         let row = (chunk * rows_per + idx / w as usize) as u32;
                         let col = (idx % w as usize) as u32;
                         let dir = basis.direction(col, row, w, h);
-                        let r = integrate_ray(frame, basis.origin, dir);
+                        let r = ray(frame, basis.origin, dir);
                         *px = r.rgba;
                         worst = worst.max(r.truncated_needed);
                     }
@@ -226,6 +287,24 @@ mod tests {
         let r = integrate_ray(&f, DVec3::new(3.0, 0.0, 0.0), -DVec3::X);
         assert_eq!(r.truncated_needed, 0, "stopped by opacity, not by max_steps");
         assert!(r.rgba[3] >= 0.95);
+    }
+
+    #[test]
+    fn back_to_front_equals_front_to_back() {
+        let data: Vec<f32> = (0..64).map(|i| ((i * 37) % 64) as f32 / 63.0).collect();
+        let lut: Vec<[f32; 4]> = (0..16).map(|i| [i as f32 / 15.0, 0.3, 1.0 - i as f32 / 15.0, 0.4 * i as f32 / 15.0]).collect();
+        let cfg = RenderConfig { step_size: 0.013, early_ray_termination: false, ..RenderConfig::default() };
+        let mut f = constant_frame(&data, &lut, cfg);
+        f.light = Light::default();
+        for dir in [DVec3::new(-1.0, 0.1, 0.05), DVec3::new(-1.0, -0.1, 0.12)] {
+            let dir = dir.normalize();
+            let a = integrate_ray(&f, DVec3::new(3.0, 0.0, 0.0), dir);
+            let b = integrate_ray_back_to_front(&f, DVec3::new(3.0, 0.0, 0.0), dir);
+            assert!(a.rgba[3] > 0.5, "{:?} {:?}", a, b);
+            for k in 0..4 {
+                assert!((a.rgba[k] - b.rgba[k]).abs() < 1e-12, "{k}: {} vs {}", a.rgba[k], b.rgba[k]);
+            }
+        }
     }
 
     #[test]

@@ -92,6 +92,7 @@ def integrate_reference(
     config: RenderConfig,
     width: int,
     height: int,
+    order: str = "front_to_back",
 ) -> Tuple[npt.NDArray[np.float64], int]: ...
 def lut_from_points(
     scalars: npt.NDArray[np.float64], values: npt.NDArray[np.float64], size: int

@@ -135,6 +135,7 @@ class VolumeRenderer:
         if not np.all(np.isfinite(lut)) or lut.min() < 0 or lut.max() > 1:
             raise ValueError("transfer functions must give colours and opacities in [0, 1]")
         self._engine.set_lut(lut)
+        self._lut = lut
         self._has_tf = True
 
     def set_config(self, config: RenderConfig) -> None:
@@ -171,11 +172,9 @@ class VolumeRenderer:
             raise RuntimeError("no volume loaded: call load_volume() before render()")
         if not self._has_tf:
             self.set_transfer_functions(ColorTransferFunction(), OpacityTransferFunction())
-        if self._camera_args is None:
-            self.set_camera(Camera.front_view())
-            self.camera = None  # pyvr: get_camera() stays None until set
         cfg = self._config_snapshot
-        img, stats = self._engine.render(*self._camera_args, *self._light_args, cfg)
+        camera = self._camera_args or self._default_camera_args()  # pyvr had no default camera
+        img, stats = self._engine.render(*camera, *self._light_args, cfg)
         self.last_frame_stats = stats
         needed = stats["truncated_needed"]
         if needed:
@@ -216,6 +215,40 @@ class VolumeRenderer:
         if origin == "upper":
             out = np.ascontiguousarray(out[::-1])
         return out
+
+    def render_float64(self, *, config: Optional[RenderConfig] = None, premultiplied: bool = False,
+                       origin: str = "lower", order: str = "front_to_back") -> np.ndarray:
+        """The same frame from the float64 CPU integrator (the engine's oracle).
+
+        Slow (CPU, one thread per core); meant for checking accuracy, e.g.
+        against a converged image: ``render_float64(config=RenderConfig(
+        step_size=1e-4, max_steps=100000, early_ray_termination=False))``.
+        ``config`` defaults to the renderer's; ``order`` is "front_to_back" or
+        "back_to_front" (equal without early termination).
+        """
+        if self.volume is None:
+            raise RuntimeError("no volume loaded: call load_volume() before render_float64()")
+        if origin not in ("lower", "upper"):
+            raise ValueError(f"origin must be 'lower' or 'upper', got {origin!r}")
+        cfg = self._config_snapshot if config is None else config
+        if not isinstance(cfg, RenderConfig):
+            raise TypeError(f"Expected RenderConfig instance, got {type(cfg)}")
+        if not self._has_tf:
+            self.set_transfer_functions(ColorTransferFunction(), OpacityTransferFunction())
+        camera = self._camera_args or self._default_camera_args()
+        img, _ = _core.integrate_reference(
+            prepare_voxels(self.volume.data), prepare_normals(self.volume.normals), *self._bounds, self._lut,
+            *camera, *self._light_args, cfg, self.width, self.height, order,
+        )
+        if not premultiplied:
+            a = img[..., 3:4]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                img[..., :3] = np.clip(np.where(a > 0, img[..., :3] / a, 0.0), 0.0, 1.0)
+        return np.ascontiguousarray(img[::-1]) if origin == "upper" else img
+
+    def _default_camera_args(self):
+        position, up = (cam := Camera.front_view()).get_camera_vectors()
+        return (_vec(position), _vec(cam.target), _vec(up), float(cam.fov))
 
     def render_to_pil(self, data=None):
         """The frame as a PIL RGBA image, top row at the top."""

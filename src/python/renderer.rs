@@ -243,7 +243,7 @@ pub fn quantize<'py>(py: Python<'py>, rgba: PyReadonlyArray3<'py, f32>, straight
 /// bottom) and the largest step count a truncated ray needed.
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
-#[pyo3(signature = (data, normals, min_bounds, max_bounds, lut, cam_position, cam_target, cam_up, fov, light_position, light_target, ambient, diffuse, light_kind, config, width, height))]
+#[pyo3(signature = (data, normals, min_bounds, max_bounds, lut, cam_position, cam_target, cam_up, fov, light_position, light_target, ambient, diffuse, light_kind, config, width, height, order="front_to_back"))]
 pub fn integrate_reference<'py>(
     py: Python<'py>,
     data: &Bound<'py, PyAny>,
@@ -263,7 +263,13 @@ pub fn integrate_reference<'py>(
     config: PyRef<'py, PyRenderConfig>,
     width: u32,
     height: u32,
+    order: &str,
 ) -> PyResult<(Bound<'py, PyArray3<f64>>, u64)> {
+    let order = match order {
+        "front_to_back" => integrate::Order::FrontToBack,
+        "back_to_front" => integrate::Order::BackToFront,
+        other => return Err(PyValueError::new_err(format!("order must be 'front_to_back' or 'back_to_front', got '{other}'"))),
+    };
     let arr = VoxelArray::extract(data)?;
     let (dims, voxels) = arr.view()?;
     let n = normals_slice(&normals, dims)?;
@@ -281,7 +287,7 @@ pub fn integrate_reference<'py>(
         width,
         height,
     };
-    let (img, needed) = py.detach(|| integrate::render(&frame)).map_err(|e| PyValueError::new_err(e.0))?;
+    let (img, needed) = py.detach(|| integrate::render_ordered(&frame, order)).map_err(|e| PyValueError::new_err(e.0))?;
     let flat: Vec<f64> = img.into_iter().flatten().collect();
     Ok((PyArray1::from_vec(py, flat).reshape([height as usize, width as usize, 4])?, needed))
 }
