@@ -69,48 +69,67 @@ pub fn corrected_alpha(a: f64, len_over_ref: f64, form: OpacityCorrection) -> f6
     one_minus_exp_neg(sigma * len_over_ref)
 }
 
+/// The segments of one ray: where its chord starts, how many segments it
+/// has (`n`, at most `max_steps`) and how many crossing it would take.
+struct Chord {
+    t0: f64,
+    t1: f64,
+    n: u64,
+    needed: u64,
+}
+
+fn chord(frame: &Frame, origin: DVec3, dir: DVec3) -> Option<Chord> {
+    let (t0, t1) = frame.volume.bounds.intersect(origin, dir)?;
+    let needed = frame.config.steps_for_length(t1 - t0);
+    Some(Chord { t0, t1, n: needed.min(frame.config.max_steps.max(0) as u64), needed })
+}
+
+/// Segment `i` of a chord: its optical depth `x` and its lit colour
+/// `I * rgb`, or `None` when it is empty (NaN sample, zero opacity, no length).
+fn segment(frame: &Frame, shading: Shading, origin: DVec3, dir: DVec3, ch: &Chord, i: u64) -> Option<(f64, [f64; 3])> {
+    let (vol, cfg) = (&frame.volume, &frame.config);
+    let s0 = ch.t0 + i as f64 * cfg.step_size;
+    let seg = cfg.step_size.min(ch.t1 - s0);
+    if seg <= 0.0 {
+        return None;
+    }
+    let p = origin + dir * (s0 + 0.5 * seg);
+    let q = vol.bounds.to_unit(p);
+    let v = vol.sample(q);
+    if v.is_nan() {
+        return None;
+    }
+    let rgba = eval_lut(frame.lut, v);
+    let sigma = extinction(rgba[3], cfg.opacity_correction);
+    if sigma <= 0.0 {
+        return None;
+    }
+    let normal = match shading {
+        Shading::AmbientOnly => None,
+        Shading::Normals => vol.normal(q),
+        Shading::Gradient => vol.gradient_normal(q),
+    };
+    let light = frame.light.intensity(normal, p);
+    Some((sigma * (seg / cfg.reference_step_size), [light * rgba[0], light * rgba[1], light * rgba[2]]))
+}
+
 pub fn integrate_ray(frame: &Frame, origin: DVec3, dir: DVec3) -> RayResult {
-    let vol = &frame.volume;
-    let Some((t0, t1)) = vol.bounds.intersect(origin, dir) else {
+    let Some(ch) = chord(frame, origin, dir) else {
         return RayResult::default();
     };
     let cfg = &frame.config;
-    let step = cfg.step_size;
-    let needed = cfg.steps_for_length(t1 - t0);
-    let n = needed.min(cfg.max_steps.max(0) as u64);
-    let shading = Shading::choose(&frame.light, vol.normals.is_some());
+    let shading = Shading::choose(&frame.light, frame.volume.normals.is_some());
     let mut c = [0.0f64; 3];
     let mut tau = 0.0f64;
     let mut t = 1.0f64;
     let mut stopped_early = false;
-    for i in 0..n {
-        let s0 = t0 + i as f64 * step;
-        let seg = step.min(t1 - s0);
-        if seg <= 0.0 {
-            break;
-        }
-        let p = origin + dir * (s0 + 0.5 * seg);
-        let q = vol.bounds.to_unit(p);
-        let v = vol.sample(q);
-        if v.is_nan() {
+    for i in 0..ch.n {
+        let Some((x, lit)) = segment(frame, shading, origin, dir, &ch, i) else {
             continue;
-        }
-        let rgba = eval_lut(frame.lut, v);
-        let sigma = extinction(rgba[3], cfg.opacity_correction);
-        if sigma <= 0.0 {
-            continue;
-        }
-        let x = sigma * (seg / cfg.reference_step_size);
-        let a = one_minus_exp_neg(x);
-        let normal = match shading {
-            Shading::AmbientOnly => None,
-            Shading::Normals => vol.normal(q),
-            Shading::Gradient => vol.gradient_normal(q),
         };
-        let light = frame.light.intensity(normal, p);
-        let w = t * a * light;
+        let w = t * one_minus_exp_neg(x);
         for k in 0..3 {
-            c[k] += w * rgba[k];
+            c[k] += w * lit[k];
         }
         // Transmittance from the summed optical depth, as the shader does.
         tau += x;
@@ -126,7 +145,7 @@ pub fn integrate_ray(frame: &Frame, origin: DVec3, dir: DVec3) -> RayResult {
             break;
         }
     }
-    let truncated_needed = if !stopped_early && n < needed { needed } else { 0 };
+    let truncated_needed = if !stopped_early && ch.n < ch.needed { ch.needed } else { 0 };
     RayResult { rgba: [c[0], c[1], c[2], 1.0 - t], truncated_needed }
 }
 
@@ -135,45 +154,22 @@ pub fn integrate_ray(frame: &Frame, origin: DVec3, dir: DVec3) -> RayResult {
 /// front-to-back when early termination does not stop the ray; a check on
 /// both, since the two orders share no accumulation code.
 pub fn integrate_ray_back_to_front(frame: &Frame, origin: DVec3, dir: DVec3) -> RayResult {
-    let vol = &frame.volume;
-    let Some((t0, t1)) = vol.bounds.intersect(origin, dir) else {
+    let Some(ch) = chord(frame, origin, dir) else {
         return RayResult::default();
     };
-    let cfg = &frame.config;
-    let step = cfg.step_size;
-    let needed = cfg.steps_for_length(t1 - t0);
-    let n = needed.min(cfg.max_steps.max(0) as u64);
-    let shading = Shading::choose(&frame.light, vol.normals.is_some());
+    let shading = Shading::choose(&frame.light, frame.volume.normals.is_some());
     let mut c = [0.0f64; 4];
-    for i in (0..n).rev() {
-        let s0 = t0 + i as f64 * step;
-        let seg = step.min(t1 - s0);
-        if seg <= 0.0 {
+    for i in (0..ch.n).rev() {
+        let Some((x, lit)) = segment(frame, shading, origin, dir, &ch, i) else {
             continue;
-        }
-        let p = origin + dir * (s0 + 0.5 * seg);
-        let q = vol.bounds.to_unit(p);
-        let v = vol.sample(q);
-        if v.is_nan() {
-            continue;
-        }
-        let rgba = eval_lut(frame.lut, v);
-        let a = corrected_alpha(rgba[3], seg / cfg.reference_step_size, cfg.opacity_correction);
-        if a <= 0.0 {
-            continue;
-        }
-        let normal = match shading {
-            Shading::AmbientOnly => None,
-            Shading::Normals => vol.normal(q),
-            Shading::Gradient => vol.gradient_normal(q),
         };
-        let light = frame.light.intensity(normal, p);
+        let a = one_minus_exp_neg(x);
         for k in 0..3 {
-            c[k] = a * light * rgba[k] + (1.0 - a) * c[k];
+            c[k] = a * lit[k] + (1.0 - a) * c[k];
         }
         c[3] = a + (1.0 - a) * c[3];
     }
-    RayResult { rgba: c, truncated_needed: if n < needed { needed } else { 0 } }
+    RayResult { rgba: c, truncated_needed: if ch.n < ch.needed { ch.needed } else { 0 } }
 }
 
 /// Compositing order of the f64 integrator.

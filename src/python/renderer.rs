@@ -82,6 +82,21 @@ impl<'py> VoxelArray<'py> {
     }
 }
 
+/// Checks and borrows a volume from numpy arrays for the duration of `f`.
+fn with_volume<R>(
+    data: &Bound<'_, PyAny>,
+    normals: &Option<PyReadonlyArray4<'_, f32>>,
+    min_bounds: Vec3,
+    max_bounds: Vec3,
+    f: impl FnOnce(VolumeView<'_>) -> PyResult<R>,
+) -> PyResult<R> {
+    let arr = VoxelArray::extract(data)?;
+    let (dims, voxels) = arr.view()?;
+    let n = normals_slice(normals, dims)?;
+    let b = bounds_from(min_bounds, max_bounds)?;
+    f(VolumeView::new(dims, voxels, n, b).map_err(|e| PyValueError::new_err(e.0))?)
+}
+
 fn bounds_from(min: Vec3, max: Vec3) -> PyResult<Bounds> {
     Bounds::new(dv(min), dv(max)).map_err(|e| PyValueError::new_err(e.0))
 }
@@ -152,13 +167,10 @@ impl PyRenderer {
         min_bounds: Vec3,
         max_bounds: Vec3,
     ) -> PyResult<()> {
-        let arr = VoxelArray::extract(data)?;
-        let (dims, voxels) = arr.view()?;
-        let n = normals_slice(&normals, dims)?;
-        let b = bounds_from(min_bounds, max_bounds)?;
-        let view = VolumeView::new(dims, voxels, n, b).map_err(|e| PyValueError::new_err(e.0))?;
         let inner = &mut self.inner;
-        py.detach(|| inner.set_volume(&view)).map_err(gpu_err)
+        with_volume(data, &normals, min_bounds, max_bounds, |view| {
+            py.detach(|| inner.set_volume(&view)).map_err(gpu_err)
+        })
     }
 
     fn set_bounds(&mut self, min_bounds: Vec3, max_bounds: Vec3) -> PyResult<()> {
@@ -270,24 +282,15 @@ pub fn integrate_reference<'py>(
         "back_to_front" => integrate::Order::BackToFront,
         other => return Err(PyValueError::new_err(format!("order must be 'front_to_back' or 'back_to_front', got '{other}'"))),
     };
-    let arr = VoxelArray::extract(data)?;
-    let (dims, voxels) = arr.view()?;
-    let n = normals_slice(&normals, dims)?;
-    let b = bounds_from(min_bounds, max_bounds)?;
-    let volume = VolumeView::new(dims, voxels, n, b).map_err(|e| PyValueError::new_err(e.0))?;
     let rows = lut_rows(&lut)?;
     let cfg = config.inner;
     cfg.validate().map_err(|e| PyValueError::new_err(e.0))?;
-    let frame = Frame {
-        volume,
-        lut: &rows,
-        camera: camera_from(cam_position, cam_target, cam_up, fov),
-        light: light_from(light_position, light_target, ambient, diffuse, light_kind)?,
-        config: cfg,
-        width,
-        height,
-    };
-    let (img, needed) = py.detach(|| integrate::render_ordered(&frame, order)).map_err(|e| PyValueError::new_err(e.0))?;
+    let camera = camera_from(cam_position, cam_target, cam_up, fov);
+    let light = light_from(light_position, light_target, ambient, diffuse, light_kind)?;
+    let (img, needed) = with_volume(data, &normals, min_bounds, max_bounds, |volume| {
+        let frame = Frame { volume, lut: &rows, camera, light, config: cfg, width, height };
+        py.detach(|| integrate::render_ordered(&frame, order)).map_err(|e| PyValueError::new_err(e.0))
+    })?;
     let flat: Vec<f64> = img.into_iter().flatten().collect();
     Ok((PyArray1::from_vec(py, flat).reshape([height as usize, width as usize, 4])?, needed))
 }
