@@ -304,6 +304,50 @@ mod tests {
     }
 
     #[test]
+    fn midpoint_rule_converges_at_second_order() {
+        // A smooth blob and a smooth TF; the error of one ray against h/64
+        // must fall ~4x per halving (order 2). Sampling segment starts
+        // instead (pyvr's rule) gives order 1 and fails this.
+        let n = 16;
+        let data: Vec<f32> = (0..n * n * n)
+            .map(|idx| {
+                let c = |a: usize| (a as f64 + 0.5) / n as f64 - 0.5;
+                let (i, j, k) = (idx / (n * n), (idx / n) % n, idx % n);
+                (-(c(i).powi(2) + (c(j) - 0.1).powi(2) + c(k).powi(2)) * 8.0).exp() as f32
+            })
+            .collect();
+        let lut: Vec<[f32; 4]> = (0..256).map(|i| {
+            let s = i as f32 / 255.0;
+            [s, 1.0 - s, 0.5, 0.5 * s]
+        }).collect();
+        let vol = VolumeView::new([n, n, n], Voxels::F32(&data), None, Bounds::default()).unwrap();
+        let dir = DVec3::new(-1.0, 0.13, 0.07).normalize();
+        let ray = |h: f64| {
+            let cfg = RenderConfig { step_size: h, max_steps: 1 << 30, early_ray_termination: false, ..RenderConfig::default() };
+            let f = Frame {
+                volume: vol,
+                lut: &lut,
+                camera: Camera { position: DVec3::new(3.0, 0.0, 0.0), target: DVec3::ZERO, up: DVec3::Z, fov_y: 0.5 },
+                light: Light { ambient: 1.0, diffuse: 0.0, ..Light::default() },
+                config: cfg,
+                width: 1,
+                height: 1,
+            };
+            integrate_ray(&f, DVec3::new(3.0, 0.0, 0.0), dir).rgba
+        };
+        let reference = ray(0.04 / 64.0);
+        let err = |h: f64| {
+            let r = ray(h);
+            (0..4).map(|k| (r[k] - reference[k]).abs()).fold(0.0, f64::max)
+        };
+        let e: Vec<f64> = [0.04, 0.02, 0.01].iter().map(|&h| err(h)).collect();
+        for w in e.windows(2) {
+            let order = (w[0] / w[1]).log2();
+            assert!((1.6..2.5).contains(&order), "observed order {order}, errors {e:?}");
+        }
+    }
+
+    #[test]
     fn small_x_is_not_lost() {
         assert_eq!(one_minus_exp_neg(1e-20), 1e-20);
         assert!((one_minus_exp_neg(1e-8) - (1e-8 - 0.5e-16)).abs() < 1e-23);
