@@ -12,8 +12,13 @@ override POWER_CORRECTION: bool = false;
 // false: trilinear by hand from textureLoad (R32Float without FLOAT32_FILTERABLE).
 override HW_FILTER: bool = true;
 
+// Skip cells of the occupancy grid that the transfer function leaves empty.
+override SKIP_EMPTY: bool = true;
+
 // Samples per partial sum (a power of two).
 const BLOCK: u32 = 256u;
+// Voxels per occupancy cell along each axis (src/occupancy.rs).
+const CELL: f32 = 8.0;
 
 struct Params {
     // Positions are relative to the box's min corner: the box is [0, extent].
@@ -52,8 +57,9 @@ struct Params {
 @group(0) @binding(2) var normals: texture_3d<f32>;
 @group(0) @binding(3) var lut: texture_2d<f32>;
 @group(0) @binding(4) var<storage, read_write> out_rgba: array<vec4<f32>>;
-// Largest step count a ray needed when max_steps cut it short.
-@group(0) @binding(5) var<storage, read_write> truncated_needed: atomic<u32>;
+// [0]: largest step count a ray needed when max_steps cut it short;
+// [1], [2]: samples taken (low and high words).
+@group(0) @binding(5) var<storage, read_write> stats: array<atomic<u32>, 3>;
 // Filtering when HW_FILTER, non-filtering otherwise (then never sampled).
 @group(0) @binding(6) var volume_sampler: sampler;
 // Always filtering: normals are stored as Rgba16Float.
@@ -62,6 +68,32 @@ struct Params {
 @group(0) @binding(8) var<storage, read_write> ray_state: array<vec4<f32>>;
 // Per pixel: 1 once the ray is finished (written by every ray in the first pass).
 @group(0) @binding(9) var<storage, read_write> ray_done: array<u32>;
+// 1 where a cell of CELL^3 voxels may be visible under the current transfer function.
+@group(0) @binding(10) var occupancy: texture_3d<u32>;
+
+// Ray parameter at which the ray leaves the occupancy cell holding texture
+// coordinate `tc`, measured from that point, or -1 if the cell is occupied.
+fn empty_cell_exit(tc: vec3<f32>, d: vec3<f32>) -> f32 {
+    let dims = vec3<f32>(textureDimensions(volume));
+    let u = tc * dims;
+    let cells = vec3<i32>(textureDimensions(occupancy)) - 1;
+    let cell = clamp(vec3<i32>(floor(u / CELL)), vec3<i32>(0), cells);
+    if (textureLoad(occupancy, cell, 0).r != 0u) {
+        return -1.0;
+    }
+    // Voxel units per unit of t along the ray, in texture axis order.
+    let du = (d * P.inv_extent.xyz).zyx * dims;
+    let lo = vec3<f32>(cell) * CELL;
+    var exit = 3.0e38;
+    for (var a = 0; a < 3; a++) {
+        if (du[a] > 0.0) {
+            exit = min(exit, (lo[a] + CELL - u[a]) / du[a]);
+        } else if (du[a] < 0.0) {
+            exit = min(exit, (lo[a] - u[a]) / du[a]);
+        }
+    }
+    return max(exit, 0.0);
+}
 
 fn is_nan(v: f32) -> bool {
     // Bit test: compilers may fold `v != v` away under fast-math assumptions.
@@ -163,6 +195,17 @@ fn light_intensity(n: vec3<f32>, p: vec3<f32>) -> f32 {
     return P.ambient + P.diffuse * max(dot(n / ln, l), 0.0);
 }
 
+// 64-bit sample count from two words: a carry when the low word wraps.
+fn count_samples(k: u32) {
+    if (k == 0u) {
+        return;
+    }
+    let old = atomicAdd(&stats[1], k);
+    if (old > 0xffffffffu - k) {
+        atomicAdd(&stats[2], 1u);
+    }
+}
+
 @compute @workgroup_size(8, 8, 1)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (gid.x >= P.width || gid.y >= P.height) {
@@ -233,6 +276,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (P.last_pass == 0u) {
         end = min(n, P.pass_start + P.pass_steps);
     }
+    var taken = 0u;
     for (var i = P.pass_start; i < end; i++) {
         let s0 = t0 + f32(i) * P.step_size;
         let seg = max(min(P.step_size, t1 - s0), 0.0);
@@ -244,6 +288,21 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         let sigma = extinction(select(0.0, rgba.a, valid));
         let x = select(0.0, min(sigma * (seg * P.inv_ref), 1.0e30), sigma > 0.0 && seg > 0.0);
         let alpha = one_minus_exp_neg(x);
+        if (SKIP_EMPTY && !(alpha > 0.0)) {
+            // This sample is empty; if its whole cell is, jump to the first
+            // sample past the cell (a thousandth of a step early, so that
+            // rounding can never skip a sample of the next cell).
+            let exit = empty_cell_exit(tc, d);
+            if (exit >= 0.0) {
+                let t_exit = s0 + 0.5 * seg + exit;
+                let first_outside = ceil((t_exit - t0) / P.step_size - 0.5 - 1e-3);
+                let next = u32(clamp(first_outside, f32(i + 1u), f32(end)));
+                taken += 1u;
+                i = next - 1u;
+                continue;
+            }
+        }
+        taken += 1u;
         var intensity = P.ambient;
         if (SHADING != 0u && alpha > 0.0) {
             if (SHADING == 1u) {
@@ -254,7 +313,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
         color_b += (trans * alpha * intensity) * rgba.rgb;
         tau_b += x;
-        if ((i & (BLOCK - 1u)) == BLOCK - 1u) {
+        if ((taken & (BLOCK - 1u)) == 0u) {
             color += color_b;
             tau += tau_b;
             color_b = vec3<f32>(0.0);
@@ -274,6 +333,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
     }
     color += color_b;
+    count_samples(taken);
     if (!stopped && end < n) {
         // Continues in the next pass.
         ray_state[idx] = vec4<f32>(color, tau + tau_b);
@@ -286,7 +346,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         ray_done[idx] = 1u;
     }
     if (!stopped && n < needed) {
-        atomicMax(&truncated_needed, needed);
+        atomicMax(&stats[0], needed);
     }
     out_rgba[idx] = vec4<f32>(color, 1.0 - trans);
 }

@@ -7,6 +7,7 @@
 pub mod config;
 pub mod gpu;
 pub mod integrate;
+pub mod occupancy;
 pub mod scene;
 pub mod transfer;
 pub mod volume;

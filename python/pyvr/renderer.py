@@ -158,6 +158,21 @@ class VolumeRenderer:
         return self.camera
 
     @property
+    def empty_space_skipping(self) -> bool:
+        """Leap over 8x8x8-voxel cells the transfer function leaves fully
+        transparent (default True). Only samples of opacity exactly 0 are
+        skipped, so images do not change; turn off to measure the saving."""
+        return self._engine.skip_empty
+
+    @empty_space_skipping.setter
+    def empty_space_skipping(self, on: bool) -> None:
+        self._engine.skip_empty = bool(on)
+
+    def empty_fraction(self) -> float:
+        """Fraction of the volume's cells the current transfer function leaves empty."""
+        return self._engine.empty_fraction()
+
+    @property
     def device(self) -> str:
         """The GPU adapter in use (e.g. 'llvmpipe (Vulkan, Cpu, ...)')."""
         return self._engine.device

@@ -20,12 +20,22 @@ pub struct Variant {
     pub correction: OpacityCorrection,
     /// The sampler filters the volume (its format is filterable).
     pub hw_filter: bool,
+    /// Leap over occupancy cells the transfer function leaves empty.
+    pub skip_empty: bool,
 }
 
 impl Variant {
-    pub fn new(shading: Shading, light: LightKind, early: bool, correction: OpacityCorrection, hw_filter: bool) -> Self {
+    pub fn new(
+        shading: Shading,
+        light: LightKind,
+        early: bool,
+        correction: OpacityCorrection,
+        hw_filter: bool,
+        skip_empty: bool,
+    ) -> Self {
         Variant {
             hw_filter,
+            skip_empty,
             shading,
             // The light's kind only matters when a diffuse term is computed.
             point_light: shading != Shading::AmbientOnly && light == LightKind::Point,
@@ -34,7 +44,7 @@ impl Variant {
         }
     }
 
-    fn constants(&self) -> [(&'static str, f64); 5] {
+    fn constants(&self) -> [(&'static str, f64); 6] {
         let shading = match self.shading {
             Shading::AmbientOnly => 0.0,
             Shading::Normals => 1.0,
@@ -46,6 +56,7 @@ impl Variant {
             ("EARLY_TERMINATION", self.early_termination as u32 as f64),
             ("POWER_CORRECTION", (self.correction == OpacityCorrection::Power) as u32 as f64),
             ("HW_FILTER", self.hw_filter as u32 as f64),
+            ("SKIP_EMPTY", self.skip_empty as u32 as f64),
         ]
     }
 }
@@ -144,6 +155,16 @@ impl Pipelines {
                         sampler(7, true),
                         storage(8, false),
                         storage(9, false),
+                        wgpu::BindGroupLayoutEntry {
+                            binding: 10,
+                            visibility: wgpu::ShaderStages::COMPUTE,
+                            ty: wgpu::BindingType::Texture {
+                                sample_type: wgpu::TextureSampleType::Uint,
+                                view_dimension: wgpu::TextureViewDimension::D3,
+                                multisampled: false,
+                            },
+                            count: None,
+                        },
                     ],
                 });
                 let pipeline = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {

@@ -6,6 +6,7 @@ use super::context::{GpuContext, GpuError};
 use super::half::f32_to_f16;
 use super::pipeline::{Pipelines, Variant, WORKGROUP};
 use crate::config::RenderConfig;
+use crate::occupancy::MinMaxGrid;
 use crate::scene::{Bounds, Camera, Light, LightKind, Shading};
 use crate::volume::{sanitize, VolumeView, Voxels};
 use bytemuck::{Pod, Zeroable};
@@ -59,6 +60,7 @@ struct VolumeGpu {
     dims: [usize; 3],
     bounds: Bounds,
     bytes: u64,
+    grid: MinMaxGrid,
 }
 
 struct Output {
@@ -98,6 +100,8 @@ pub struct FrameStats {
     pub uploaded_bytes: u64,
     /// Dispatches the frame took (rays longer than PASS_STEPS need several).
     pub passes: u32,
+    /// Samples the frame took over all rays (skipped empty space not counted).
+    pub samples: u64,
 }
 
 /// Counters over the renderer's life.
@@ -122,6 +126,11 @@ pub struct GpuRenderer {
     volume_samplers: [wgpu::Sampler; 2],
     linear_sampler: wgpu::Sampler,
     volume: Option<VolumeGpu>,
+    /// The table last uploaded, kept to recompute occupancy for a new volume.
+    lut_rows: Vec<[f32; 4]>,
+    occupancy: Option<wgpu::TextureView>,
+    /// Leap over empty cells (on by default; off to measure what it saves).
+    pub skip_empty: bool,
     bound_hw_filter: bool,
     /// Interpolate in the shader even when the format could be filtered
     /// (the path used without FLOAT32_FILTERABLE); for tests and comparisons.
@@ -154,13 +163,13 @@ impl GpuRenderer {
             });
             let stats = device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("stats"),
-                size: 4,
+                size: 12,
                 usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
             });
             let stats_readback = device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("stats readback"),
-                size: 4,
+                size: 12,
                 usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
             });
@@ -204,6 +213,9 @@ impl GpuRenderer {
             volume_samplers,
             linear_sampler,
             volume: None,
+            lut_rows: Vec::new(),
+            occupancy: None,
+            skip_empty: true,
             bound_hw_filter: false,
             shader_filtering: false,
             lut: None,
@@ -365,8 +377,12 @@ impl GpuRenderer {
                 Some(ctx.scoped("uploading the normals", || make("normals", wgpu::TextureFormat::Rgba16Float, data, 8))?)
             }
         };
-        self.volume = Some(VolumeGpu { _texture: texture, filterable, view, normals, dims: vol.dims, bounds: vol.bounds, bytes: total });
+        let grid = MinMaxGrid::build(vol);
+        self.volume = Some(VolumeGpu { _texture: texture, filterable, view, normals, dims: vol.dims, bounds: vol.bounds, bytes: total, grid });
         self.bind_group = None;
+        if !self.lut_rows.is_empty() {
+            self.update_occupancy()?;
+        }
         self.pending_upload += total;
         self.counters.volume_uploads += 1;
         Ok(())
@@ -426,10 +442,60 @@ impl GpuRenderer {
             tex.create_view(&Default::default())
         })?;
         self.lut = Some((view, lut.len() as u32));
+        self.lut_rows = lut.to_vec();
         self.bind_group = None;
+        if self.volume.is_some() {
+            self.update_occupancy()?;
+        }
         self.pending_upload += bytes.len() as u64;
         self.counters.lut_uploads += 1;
         Ok(())
+    }
+
+    /// Which occupancy cells the current table can make visible, uploaded as
+    /// a small R8Uint 3-D texture (one byte per 8^3 voxels).
+    fn update_occupancy(&mut self) -> Result<(), GpuError> {
+        let Some(vol) = self.volume.as_ref() else {
+            return Ok(());
+        };
+        let occ = vol.grid.occupancy(&self.lut_rows);
+        let [g0, g1, g2] = vol.grid.dims;
+        let device = &self.ctx.device;
+        let queue = &self.ctx.queue;
+        let view = self.ctx.scoped("uploading the occupancy grid", || {
+            device
+                .create_texture_with_data(
+                    queue,
+                    &wgpu::TextureDescriptor {
+                        label: Some("occupancy"),
+                        size: wgpu::Extent3d { width: g2 as u32, height: g1 as u32, depth_or_array_layers: g0 as u32 },
+                        mip_level_count: 1,
+                        sample_count: 1,
+                        dimension: wgpu::TextureDimension::D3,
+                        format: wgpu::TextureFormat::R8Uint,
+                        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+                        view_formats: &[],
+                    },
+                    wgpu::util::TextureDataOrder::LayerMajor,
+                    &occ,
+                )
+                .create_view(&Default::default())
+        })?;
+        self.pending_upload += occ.len() as u64;
+        self.occupancy = Some(view);
+        self.bind_group = None;
+        Ok(())
+    }
+
+    /// Fraction of occupancy cells the current transfer function leaves empty.
+    pub fn empty_fraction(&self) -> f64 {
+        match self.volume.as_ref() {
+            Some(v) if !self.lut_rows.is_empty() => {
+                let occ = v.grid.occupancy(&self.lut_rows);
+                occ.iter().filter(|&&o| o == 0).count() as f64 / occ.len() as f64
+            }
+            _ => 0.0,
+        }
     }
 
     pub fn has_lut(&self) -> bool {
@@ -508,7 +574,8 @@ impl GpuRenderer {
             self.bind_group = None;
         }
         let hw_filter = vol.filterable && !self.shader_filtering;
-        let variant = Variant::new(shading, light.kind, cfg.early_ray_termination, cfg.opacity_correction, hw_filter);
+        let variant =
+            Variant::new(shading, light.kind, cfg.early_ray_termination, cfg.opacity_correction, hw_filter, self.skip_empty);
         let pipeline = self.pipelines.get(&self.ctx, variant)?;
         let ctx = self.ctx.clone();
         if self.bound_hw_filter != hw_filter {
@@ -518,6 +585,10 @@ impl GpuRenderer {
             let output = self.output.as_ref().expect("resize() always leaves an output");
             let (lut, _) = self.lut.as_ref().expect("checked above");
             let normals = vol.normals.as_ref().map_or(&self.dummy_normals, |(_, v)| v);
+            let occupancy = self
+                .occupancy
+                .as_ref()
+                .ok_or_else(|| GpuError("the occupancy grid is missing: load the volume again".into()))?;
             let bg = ctx.scoped("binding frame resources", || {
                 ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
                     label: Some("raymarch"),
@@ -536,6 +607,10 @@ impl GpuRenderer {
                         wgpu::BindGroupEntry { binding: 7, resource: wgpu::BindingResource::Sampler(&self.linear_sampler) },
                         wgpu::BindGroupEntry { binding: 8, resource: self.ray_state.state.as_entire_binding() },
                         wgpu::BindGroupEntry { binding: 9, resource: self.ray_state.done.as_entire_binding() },
+                        wgpu::BindGroupEntry {
+                            binding: 10,
+                            resource: wgpu::BindingResource::TextureView(occupancy),
+                        },
                     ],
                 })
             })?;
@@ -545,8 +620,8 @@ impl GpuRenderer {
         let bind_group = self.bind_group.as_ref().expect("set above");
         let output = self.output.as_ref().expect("resize() always leaves an output");
         let queue = &ctx.queue;
-        queue.write_buffer(&self.stats, 0, &[0u8; 4]);
-        let uploaded = self.pending_upload + passes as u64 * std::mem::size_of::<Params>() as u64 + 4;
+        queue.write_buffer(&self.stats, 0, &[0u8; 12]);
+        let uploaded = self.pending_upload + passes as u64 * std::mem::size_of::<Params>() as u64 + 12;
         self.pending_upload = 0;
 
         let bytes = n as u64 * 4;
@@ -568,7 +643,7 @@ impl GpuRenderer {
                 }
                 if p.last_pass == 1 {
                     enc.copy_buffer_to_buffer(&output.storage, 0, &output.readback, 0, bytes);
-                    enc.copy_buffer_to_buffer(&self.stats, 0, &self.stats_readback, 0, 4);
+                    enc.copy_buffer_to_buffer(&self.stats, 0, &self.stats_readback, 0, 12);
                 }
                 queue.submit([enc.finish()]);
             })?;
@@ -597,17 +672,18 @@ impl GpuRenderer {
                 .map_err(|e| GpuError(format!("reading the image back failed: {e}")))?;
             out.copy_from_slice(bytemuck::cast_slice(&data));
         }
-        let truncated_needed = {
+        let (truncated_needed, samples) = {
             let data = stat
                 .get_mapped_range()
                 .map_err(|e| GpuError(format!("reading frame statistics failed: {e}")))?;
-            u32::from_le_bytes([data[0], data[1], data[2], data[3]])
+            let w: &[u32] = bytemuck::cast_slice(&data);
+            (w[0], w[1] as u64 | (w[2] as u64) << 32)
         };
         output.readback.unmap();
         self.stats_readback.unmap();
         self.counters.frames += 1;
         self.counters.uploaded_bytes += uploaded;
-        Ok(FrameStats { truncated_needed, uploaded_bytes: uploaded, passes })
+        Ok(FrameStats { truncated_needed, uploaded_bytes: uploaded, passes, samples })
     }
 
     pub fn render(&mut self, camera: &Camera, light: &Light, cfg: &RenderConfig) -> Result<(Vec<f32>, FrameStats), GpuError> {

@@ -213,6 +213,7 @@ impl PyRenderer {
         d.set_item("truncated_needed", stats.truncated_needed)?;
         d.set_item("uploaded_bytes", stats.uploaded_bytes)?;
         d.set_item("passes", stats.passes)?;
+        d.set_item("samples", stats.samples)?;
         Ok((arr, d))
     }
 
@@ -228,6 +229,21 @@ impl PyRenderer {
         d.set_item("volume_bytes", self.inner.volume_bytes())?;
         d.set_item("pipeline_variants", self.inner.cached_variants())?;
         Ok(d)
+    }
+
+    /// Leap over cells the transfer function leaves empty (default on).
+    #[getter]
+    fn get_skip_empty(&self) -> bool {
+        self.inner.skip_empty
+    }
+    #[setter]
+    fn set_skip_empty(&mut self, on: bool) {
+        self.inner.skip_empty = on;
+    }
+
+    /// Fraction of the volume's 8^3-voxel cells the current transfer function leaves empty.
+    fn empty_fraction(&self) -> f64 {
+        self.inner.empty_fraction()
     }
 
     #[getter]

@@ -1,0 +1,127 @@
+//! Empty-space skipping: a coarse min/max grid over the volume (built once
+//! per volume) and, per transfer function, which cells can be non-empty.
+//!
+//! A cell covers BLOCK^3 voxels; its range includes a one-voxel apron, since
+//! trilinear interpolation anywhere inside the cell reads the neighbours. A
+//! cell is empty when the table's opacity is 0 at every entry its value
+//! range touches (entries are interpolated linearly, so the maximum over a
+//! range is at an entry inside it or at its ends). Skipping such cells only
+//! removes samples whose opacity is exactly 0: images are unchanged.
+
+use crate::volume::VolumeView;
+
+pub const BLOCK: usize = 8;
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct MinMaxGrid {
+    /// Cells along numpy axes (axis 2 fastest in `min`/`max`).
+    pub dims: [usize; 3],
+    pub min: Vec<f32>,
+    pub max: Vec<f32>,
+}
+
+impl MinMaxGrid {
+    pub fn build(vol: &VolumeView) -> MinMaxGrid {
+        let [s0, s1, s2] = vol.dims;
+        let g = [s0.div_ceil(BLOCK), s1.div_ceil(BLOCK), s2.div_ceil(BLOCK)];
+        let cells = g[0] * g[1] * g[2];
+        let mut min = vec![f32::INFINITY; cells];
+        let mut max = vec![f32::NEG_INFINITY; cells];
+        // Voxels whose value a sample in cell c can read: [cB - 1, (c+1)B].
+        let window = |c: usize, n: usize| (c * BLOCK).saturating_sub(1)..((c + 1) * BLOCK + 1).min(n);
+        for a in 0..g[0] {
+            for b in 0..g[1] {
+                for c in 0..g[2] {
+                    let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+                    for i in window(a, s0) {
+                        for j in window(b, s1) {
+                            let row = (i * s1 + j) * s2;
+                            for k in window(c, s2) {
+                                // NaN voxels are empty: min/max ignore them.
+                                let v = vol.voxels.value(row + k) as f32;
+                                lo = lo.min(v);
+                                hi = hi.max(v);
+                            }
+                        }
+                    }
+                    let o = (a * g[1] + b) * g[2] + c;
+                    min[o] = lo;
+                    max[o] = hi;
+                }
+            }
+        }
+        MinMaxGrid { dims: g, min, max }
+    }
+
+    /// 1 for cells the table can make visible, 0 for empty ones.
+    pub fn occupancy(&self, lut: &[[f32; 4]]) -> Vec<u8> {
+        let m = lut.len();
+        if m == 0 {
+            return vec![0; self.min.len()];
+        }
+        // Prefix counts of non-zero opacities: any-in-range in O(1).
+        let mut nonzero = Vec::with_capacity(m + 1);
+        nonzero.push(0u32);
+        for e in lut {
+            let last = *nonzero.last().unwrap_or(&0);
+            nonzero.push(last + (e[3] > 0.0) as u32);
+        }
+        let scale = (m - 1) as f32;
+        self.min
+            .iter()
+            .zip(&self.max)
+            .map(|(&lo, &hi)| {
+                if lo > hi {
+                    return 0; // only NaN voxels
+                }
+                let i0 = (lo.clamp(0.0, 1.0) * scale).floor() as usize;
+                let i1 = ((hi.clamp(0.0, 1.0) * scale).ceil() as usize).min(m - 1);
+                (nonzero[i1 + 1] > nonzero[i0]) as u8
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::Bounds;
+    use crate::volume::Voxels;
+
+    #[test]
+    fn ranges_include_the_apron_and_ignore_nan() {
+        // 24 voxels along axis 2: three cells. A spike in cell 0's last voxel
+        // reaches cell 1 through interpolation, not cell 2.
+        let mut data = vec![0.0f32; 24];
+        data[7] = 0.9;
+        data[12] = f32::NAN;
+        data[16] = 0.5;
+        let v = VolumeView::new([1, 1, 24], Voxels::F32(&data), None, Bounds::default()).unwrap();
+        let g = MinMaxGrid::build(&v);
+        assert_eq!(g.dims, [1, 1, 3]);
+        assert_eq!(g.max, vec![0.9, 0.9, 0.5]);
+        assert_eq!(g.min, vec![0.0, 0.0, 0.0]);
+        // Cell 0 reads voxel 8 (cell 1's first) too.
+        data[8] = 0.95;
+        let v = VolumeView::new([1, 1, 24], Voxels::F32(&data), None, Bounds::default()).unwrap();
+        assert_eq!(MinMaxGrid::build(&v).max, vec![0.95, 0.95, 0.5]);
+    }
+
+    #[test]
+    fn occupancy_follows_the_table() {
+        let data: Vec<f32> = (0..16).map(|k| if k < 8 { 0.1 } else { 0.8 }).collect();
+        let v = VolumeView::new([1, 1, 16], Voxels::F32(&data), None, Bounds::default()).unwrap();
+        let mut g = MinMaxGrid::build(&v);
+        // Without the apron the two cells hold 0.1 and 0.8 only.
+        g.min = vec![0.1, 0.8];
+        g.max = vec![0.1, 0.8];
+        let step: Vec<[f32; 4]> = (0..11).map(|i| [1.0, 1.0, 1.0, if i >= 5 { 1.0 } else { 0.0 }]).collect();
+        assert_eq!(g.occupancy(&step), vec![0, 1]);
+        let empty = vec![[1.0f32, 1.0, 1.0, 0.0]; 11];
+        assert_eq!(g.occupancy(&empty), vec![0, 0]);
+        // A range straddling an entry with opacity counts as occupied.
+        g.min = vec![0.41, 0.0];
+        g.max = vec![0.42, 0.0];
+        assert_eq!(g.occupancy(&step), vec![1, 0]);
+    }
+}
