@@ -105,19 +105,6 @@ pub fn colormap(name: &str) -> Option<Vec<[f64; 3]>> {
     )
 }
 
-/// Samples a colormap at `x` in [0, 1] the way matplotlib does for a float
-/// input: `min(int(x * N), N - 1)` picks the entry (no interpolation).
-pub fn colormap_at(table: &[[f64; 3]], x: f64) -> [f64; 3] {
-    let n = table.len();
-    let x = if x.is_nan() { 0.0 } else { x };
-    let i = if x < 0.0 {
-        0
-    } else {
-        ((x * n as f64) as usize).min(n - 1)
-    };
-    table[i]
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -27,14 +27,6 @@ impl Voxels<'_> {
         self.len() == 0
     }
 
-    pub fn bytes_per_voxel(&self) -> usize {
-        match self {
-            Voxels::F32(_) => 4,
-            Voxels::U8(_) => 1,
-            Voxels::U16(_) => 2,
-        }
-    }
-
     #[inline]
     pub fn value(&self, idx: usize) -> f64 {
         match self {

@@ -116,6 +116,12 @@ impl GpuContext {
         Ok(out)
     }
 
+    /// Largest storage buffer one binding can see: bounds the output image
+    /// (16 bytes per pixel) and the per-pixel ray state.
+    pub fn max_storage_bytes(&self) -> u64 {
+        self.limits.max_storage_buffer_binding_size.min(self.limits.max_buffer_size)
+    }
+
     pub fn describe(&self) -> String {
         let i = &self.adapter_info;
         format!("{} ({:?}, {:?}, driver {} {})", i.name, i.backend, i.device_type, i.driver, i.driver_info)

@@ -256,9 +256,7 @@ impl GpuRenderer {
             return Err(GpuError(format!("width and height must be positive, got {width}x{height}")));
         }
         let bytes = width as u64 * height as u64 * 16;
-        let max_binding = ctx.limits.max_storage_buffer_binding_size as u64;
-        let max_buffer = ctx.limits.max_buffer_size;
-        let limit = max_binding.min(max_buffer);
+        let limit = ctx.max_storage_bytes();
         if bytes > limit {
             return Err(GpuError(format!(
                 "image {width}x{height} needs {bytes} bytes of output, over this device's limit of {limit} \
@@ -392,17 +390,6 @@ impl GpuRenderer {
         Ok(())
     }
 
-    pub fn has_volume(&self) -> bool {
-        self.volume.is_some()
-    }
-
-    /// Changes only the world box of the loaded volume (no re-upload).
-    pub fn set_bounds(&mut self, bounds: Bounds) {
-        if let Some(v) = self.volume.as_mut() {
-            v.bounds = bounds;
-        }
-    }
-
     /// Uploads an RGBA lookup table (entries at scalars `m / (M - 1)`) as an
     /// M x 1 texture the sampler interpolates: a texture fetch is far cheaper
     /// than an indexed storage-buffer read on CPU drivers. f32 when the device
@@ -503,10 +490,6 @@ impl GpuRenderer {
         }
     }
 
-    pub fn has_lut(&self) -> bool {
-        self.lut.is_some()
-    }
-
     fn params(&self, vol: &VolumeGpu, camera: &Camera, light: &Light, cfg: &RenderConfig) -> Result<Params, GpuError> {
         let basis = camera.basis(self.width, self.height).map_err(|e| GpuError(e.0))?;
         let ext = vol.bounds.extent();
@@ -566,7 +549,7 @@ impl GpuRenderer {
         let passes = max_n.div_ceil(PASS_STEPS as u64).max(1) as u32;
         let pixels = self.width as u64 * self.height as u64;
         if passes > 1 && self.ray_state.pixels < pixels {
-            let limit = (self.ctx.limits.max_storage_buffer_binding_size as u64).min(self.ctx.limits.max_buffer_size);
+            let limit = self.ctx.max_storage_bytes();
             if pixels * 16 > limit {
                 return Err(GpuError(format!(
                     "rays of up to {max_n} steps are marched in passes, which need 16 bytes per pixel: \

@@ -24,7 +24,7 @@ fn device_limits(py: Python<'_>) -> PyResult<Bound<'_, pyo3::types::PyDict>> {
     d.set_item("max_texture_dimension_2d", l.max_texture_dimension_2d)?;
     d.set_item("max_storage_buffer_binding_size", l.max_storage_buffer_binding_size)?;
     d.set_item("max_buffer_size", l.max_buffer_size)?;
-    d.set_item("max_image_pixels", (l.max_storage_buffer_binding_size as u64).min(l.max_buffer_size) / 16)?;
+    d.set_item("max_image_pixels", ctx.max_storage_bytes() / 16)?;
     Ok(d)
 }
 

@@ -173,11 +173,6 @@ impl PyRenderer {
         })
     }
 
-    fn set_bounds(&mut self, min_bounds: Vec3, max_bounds: Vec3) -> PyResult<()> {
-        self.inner.set_bounds(bounds_from(min_bounds, max_bounds)?);
-        Ok(())
-    }
-
     /// Uploads an (M, 4) float32 RGBA table, entries at scalars m / (M - 1).
     fn set_lut(&mut self, lut: PyReadonlyArray2<'_, f32>) -> PyResult<()> {
         let rows = lut_rows(&lut)?;
@@ -263,7 +258,7 @@ pub fn quantize<'py>(py: Python<'py>, rgba: PyReadonlyArray3<'py, f32>, straight
     let src = rgba.as_slice().map_err(|_| PyValueError::new_err("image must be C-contiguous"))?;
     let mut out = vec![0u8; src.len()];
     to_u8(src, straight, &mut out);
-    Ok(PyArray1::from_vec(py, out).reshape([s[0], s[1], 4])?)
+    PyArray1::from_vec(py, out).reshape([s[0], s[1], 4])
 }
 
 /// The f64 integrator: the same frame as the GPU renders, in double

@@ -30,7 +30,7 @@ pub fn lut_from_points<'py>(
     }
     let vs = values.as_slice().map_err(|_| PyValueError::new_err("values must be C-contiguous"))?;
     let lut = transfer::lut_from_points(xs, vs, shape[1], size);
-    Ok(PyArray1::from_vec(py, lut).reshape([size, shape[1]])?)
+    PyArray1::from_vec(py, lut).reshape([size, shape[1]])
 }
 
 /// A built-in colormap as a (256, 3) float64 array, or None if unknown.
