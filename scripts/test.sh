@@ -5,6 +5,8 @@
 # installs what is missing and rebuilds pyvr if its sources changed.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# Mesa's Vulkan loader probes for a display and complains without this.
+export XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-$(mktemp -d)}
 bash scripts/setup.sh
 export PYVR_BACKEND=${PYVR_BACKEND:-vulkan}
 echo "== cargo test"

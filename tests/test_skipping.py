@@ -61,8 +61,19 @@ def test_empty_transfer_function_takes_almost_no_samples():
     (img_plain, n_plain, _), (img, n_skip, r) = both(vol, OpacityTransferFunction.linear(0.0, 0.0))
     assert not img.any() and not img_plain.any()
     assert r.empty_fraction() == 1.0
-    # One sample per 8^3-voxel cell crossed (0.125 world units of a 64^3 volume
-    # in the unit box, 12.5 steps of 0.01), against one per step.
+    # No cell is visible: no ray is marched at all.
+    assert n_skip == 0 and r.last_frame_stats["passes"] == 0 and n_plain > 10_000
+
+
+def test_a_sample_per_empty_cell_crossed():
+    # Visible only in one corner: rays through the rest of the box take one
+    # sample per 8^3-voxel cell crossed (0.125 world units of a 64^3 volume in
+    # the unit box, 12.5 steps of 0.01) instead of one per step.
+    d = create_sample_volume(64, "sphere")
+    d[:8, :8, :8] = 1.0
+    (img_plain, n_plain, _), (img, n_skip, r) = both(Volume(d), OpacityTransferFunction.one_step(0.99, 0.0, 0.5))
+    assert np.abs(img - img_plain).max() < 1 / 255 and img[..., 3].max() > 0.3
+    assert r.empty_fraction() > 0.9
     assert n_skip < 0.3 * n_plain
 
 

@@ -132,6 +132,9 @@ pub struct GpuRenderer {
     /// Some cell is empty under the current table: only then is the skipping
     /// variant worth its cost (its branch slows dense scenes by ~20% on lavapipe).
     any_empty: bool,
+    /// Some cell is visible: when none is, the frame is transparent and no
+    /// ray needs marching (the root of the skipping hierarchy).
+    any_occupied: bool,
     /// Leap over empty cells (on by default; off to measure what it saves).
     pub skip_empty: bool,
     bound_hw_filter: bool,
@@ -219,6 +222,7 @@ impl GpuRenderer {
             lut_rows: Vec::new(),
             occupancy: None,
             any_empty: false,
+            any_occupied: true,
             skip_empty: true,
             bound_hw_filter: false,
             shader_filtering: false,
@@ -474,6 +478,7 @@ impl GpuRenderer {
         })?;
         self.pending_upload += occ.len() as u64;
         self.any_empty = occ.contains(&0);
+        self.any_occupied = occ.contains(&1);
         self.occupancy = Some(view);
         self.bind_group = None;
         Ok(())
@@ -542,6 +547,14 @@ impl GpuRenderer {
         }
         cfg.validate().map_err(|e| GpuError(e.0))?;
         let params = self.params(vol, camera, light, cfg)?;
+        if self.skip_empty && !self.any_occupied {
+            // Every sample of every ray would have opacity 0.
+            out.fill(0.0);
+            self.counters.frames += 1;
+            let uploaded = std::mem::take(&mut self.pending_upload);
+            self.counters.uploaded_bytes += uploaded;
+            return Ok(FrameStats { truncated_needed: 0, uploaded_bytes: uploaded, passes: 0, samples: 0 });
+        }
         let shading = Shading::choose(light, vol.normals.is_some());
         // An upper bound on any ray's step count decides how many passes.
         let longest = vol.bounds.max_chord_from(camera.position);
