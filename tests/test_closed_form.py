@@ -82,8 +82,8 @@ def test_f64_integrator_matches_closed_form(preset):
     lut[:, 3] = A_TF
     p, up = cam.get_camera_vectors()
     img, needed = _core.integrate_reference(
-        vol.data, None, (-0.5,) * 3, (0.5,) * 3, lut, tuple(p), (0.0, 0.0, 0.0), tuple(up), cam.fov,
-        (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 1.0, 0.0, "directional", cfg, W, H,
+        vol.data, None, (-0.5,) * 3, (0.5,) * 3, lut, (tuple(p), (0.0, 0.0, 0.0), tuple(up), cam.fov),
+        ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 1.0, 0.0, "directional"), cfg, W, H,
     )
     L = chords(cam, np.full(3, -0.5), np.full(3, 0.5), W, H)
     a = np.float64(np.float32(A_TF))

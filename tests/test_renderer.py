@@ -226,7 +226,9 @@ def test_core_rejects_bad_arguments_with_python_errors():
         r.set_lut(np.zeros((5, 3), np.float32))
     with pytest.raises(ValueError, match="finite"):
         r.set_lut(np.full((2, 4), np.nan, np.float32))
-    args = ((3, 0, 0), (0, 0, 0), (0, 0, 1), 0.8, (1, 1, 1), (0, 0, 0), 0.2, 0.8, "directional", RenderConfig())
+    cam = ((3, 0, 0), (0, 0, 0), (0, 0, 1), 0.8)
+    light = ((1, 1, 1), (0, 0, 0), 0.2, 0.8, "directional")
+    args = (cam, light, RenderConfig())
     with pytest.raises(ValueError, match="no volume loaded"):
         r.render(*args)
     r.set_volume(np.zeros((2, 2, 2), np.float32), None, (0, 0, 0), (1, 1, 1))
@@ -234,13 +236,15 @@ def test_core_rejects_bad_arguments_with_python_errors():
         r.render(*args)
     r.set_lut(np.zeros((2, 4), np.float32))
     with pytest.raises(ValueError, match="light kind"):
-        r.render(*args[:8], "spot", args[9])
+        r.render(cam, light[:4] + ("spot",), args[2])
     with pytest.raises(ValueError, match="fov"):
-        r.render(args[0], args[1], args[2], 3.5, *args[4:])
+        r.render(cam[:3] + (3.5,), light, args[2])
     with pytest.raises(ValueError, match="camera position must differ"):
-        r.render((0, 0, 0), *args[1:])
+        r.render(((0, 0, 0),) + cam[1:], light, args[2])
     with pytest.raises(ValueError, match="finite"):
-        r.render((np.nan, 0, 0), *args[1:])
+        r.render(((np.nan, 0, 0),) + cam[1:], light, args[2])
+    with pytest.raises(ValueError, match="tuple of length 4"):
+        r.render((1, 2), light, args[2])
     img, stats = r.render(*args)
     assert img.shape == (4, 4, 4) and stats["truncated_needed"] == 0
     with pytest.raises(ValueError, match="sorted"):

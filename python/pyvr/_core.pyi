@@ -6,6 +6,10 @@ import numpy as np
 import numpy.typing as npt
 
 Vec3 = Tuple[float, float, float]
+# (position, target, up, vertical fov in radians)
+CameraArgs = Tuple[Vec3, Vec3, Vec3, float]
+# (position, target, ambient, diffuse, "directional" | "point")
+LightArgs = Tuple[Vec3, Vec3, float, float, str]
 
 __version__: str
 
@@ -58,17 +62,7 @@ class Renderer:
     ) -> None: ...
     def set_lut(self, lut: npt.NDArray[np.float32]) -> None: ...
     def render(
-        self,
-        cam_position: Vec3,
-        cam_target: Vec3,
-        cam_up: Vec3,
-        fov: float,
-        light_position: Vec3,
-        light_target: Vec3,
-        ambient: float,
-        diffuse: float,
-        light_kind: str,
-        config: RenderConfig,
+        self, camera: CameraArgs, light: LightArgs, config: RenderConfig
     ) -> Tuple[npt.NDArray[np.float32], Dict[str, int]]: ...
     def counters(self) -> Dict[str, int]: ...
     skip_empty: bool
@@ -81,15 +75,8 @@ def integrate_reference(
     min_bounds: Vec3,
     max_bounds: Vec3,
     lut: npt.NDArray[np.float32],
-    cam_position: Vec3,
-    cam_target: Vec3,
-    cam_up: Vec3,
-    fov: float,
-    light_position: Vec3,
-    light_target: Vec3,
-    ambient: float,
-    diffuse: float,
-    light_kind: str,
+    camera: CameraArgs,
+    light: LightArgs,
     config: RenderConfig,
     width: int,
     height: int,

@@ -189,7 +189,7 @@ class VolumeRenderer:
             self.set_transfer_functions(ColorTransferFunction(), OpacityTransferFunction())
         cfg = self._config_snapshot
         camera = self._camera_args or self._default_camera_args()  # pyvr had no default camera
-        img, stats = self._engine.render(*camera, *self._light_args, cfg)
+        img, stats = self._engine.render(camera, self._light_args, cfg)
         self.last_frame_stats = stats
         needed = stats["truncated_needed"]
         if needed:
@@ -253,7 +253,7 @@ class VolumeRenderer:
         camera = self._camera_args or self._default_camera_args()
         img, _ = _core.integrate_reference(
             prepare_voxels(self.volume.data), prepare_normals(self.volume.normals), *self._bounds, self._lut,
-            *camera, *self._light_args, cfg, self.width, self.height, order,
+            camera, self._light_args, cfg, self.width, self.height, order,
         )
         if not premultiplied:
             a = img[..., 3:4]

@@ -25,17 +25,23 @@ pub fn gpu_err(e: GpuError) -> PyErr {
 }
 
 type Vec3 = (f64, f64, f64);
+/// (position, target, up, vertical fov in radians)
+type CameraArgs = (Vec3, Vec3, Vec3, f64);
+/// (position, target, ambient, diffuse, "directional" | "point")
+type LightArgs = (Vec3, Vec3, f64, f64, String);
 
 fn dv(v: Vec3) -> DVec3 {
     DVec3::new(v.0, v.1, v.2)
 }
 
-pub fn camera_from(position: Vec3, target: Vec3, up: Vec3, fov: f64) -> Camera {
+pub fn camera_from(c: &CameraArgs) -> Camera {
+    let (position, target, up, fov) = *c;
     Camera { position: dv(position), target: dv(target), up: dv(up), fov_y: fov }
 }
 
-pub fn light_from(position: Vec3, target: Vec3, ambient: f64, diffuse: f64, kind: &str) -> PyResult<Light> {
-    let kind = match kind {
+pub fn light_from(l: &LightArgs) -> PyResult<Light> {
+    let (position, target, ambient, diffuse, ref kind) = *l;
+    let kind = match kind.as_str() {
         "directional" => LightKind::Directional,
         "point" => LightKind::Point,
         other => return Err(PyValueError::new_err(format!("light kind must be 'directional' or 'point', got '{other}'"))),
@@ -181,24 +187,16 @@ impl PyRenderer {
 
     /// Renders one frame: float32 (H, W, 4) premultiplied RGBA, row 0 at the
     /// bottom, and a dict of frame statistics.
-    #[allow(clippy::too_many_arguments)]
-    #[pyo3(signature = (cam_position, cam_target, cam_up, fov, light_position, light_target, ambient, diffuse, light_kind, config))]
+    #[pyo3(signature = (camera, light, config))]
     fn render<'py>(
         &mut self,
         py: Python<'py>,
-        cam_position: Vec3,
-        cam_target: Vec3,
-        cam_up: Vec3,
-        fov: f64,
-        light_position: Vec3,
-        light_target: Vec3,
-        ambient: f64,
-        diffuse: f64,
-        light_kind: &str,
+        camera: CameraArgs,
+        light: LightArgs,
         config: PyRef<'_, PyRenderConfig>,
     ) -> PyResult<(Bound<'py, PyArray3<f32>>, Bound<'py, PyDict>)> {
-        let camera = camera_from(cam_position, cam_target, cam_up, fov);
-        let light = light_from(light_position, light_target, ambient, diffuse, light_kind)?;
+        let camera = camera_from(&camera);
+        let light = light_from(&light)?;
         let cfg = config.inner;
         let (w, h) = self.inner.size();
         let inner = &mut self.inner;
@@ -266,7 +264,7 @@ pub fn quantize<'py>(py: Python<'py>, rgba: PyReadonlyArray3<'py, f32>, straight
 /// bottom) and the largest step count a truncated ray needed.
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
-#[pyo3(signature = (data, normals, min_bounds, max_bounds, lut, cam_position, cam_target, cam_up, fov, light_position, light_target, ambient, diffuse, light_kind, config, width, height, order="front_to_back"))]
+#[pyo3(signature = (data, normals, min_bounds, max_bounds, lut, camera, light, config, width, height, order="front_to_back"))]
 pub fn integrate_reference<'py>(
     py: Python<'py>,
     data: &Bound<'py, PyAny>,
@@ -274,15 +272,8 @@ pub fn integrate_reference<'py>(
     min_bounds: Vec3,
     max_bounds: Vec3,
     lut: PyReadonlyArray2<'py, f32>,
-    cam_position: Vec3,
-    cam_target: Vec3,
-    cam_up: Vec3,
-    fov: f64,
-    light_position: Vec3,
-    light_target: Vec3,
-    ambient: f64,
-    diffuse: f64,
-    light_kind: &str,
+    camera: CameraArgs,
+    light: LightArgs,
     config: PyRef<'py, PyRenderConfig>,
     width: u32,
     height: u32,
@@ -296,8 +287,8 @@ pub fn integrate_reference<'py>(
     let rows = lut_rows(&lut)?;
     let cfg = config.inner;
     cfg.validate().map_err(|e| PyValueError::new_err(e.0))?;
-    let camera = camera_from(cam_position, cam_target, cam_up, fov);
-    let light = light_from(light_position, light_target, ambient, diffuse, light_kind)?;
+    let camera = camera_from(&camera);
+    let light = light_from(&light)?;
     let (img, needed) = with_volume(data, &normals, min_bounds, max_bounds, |volume| {
         let frame = Frame { volume, lut: &rows, camera, light, config: cfg, width, height };
         py.detach(|| integrate::render_ordered(&frame, order)).map_err(|e| PyValueError::new_err(e.0))
