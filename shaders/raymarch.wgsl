@@ -48,7 +48,9 @@ struct Params {
     pass_steps: u32,
     first_pass: u32,
     last_pass: u32,
-    _pad0: u32,
+    // Mip levels of `occupancy` (passed in: textureNumLevels is not reliable
+    // on every driver).
+    occ_levels: u32,
     _pad1: u32,
 };
 
@@ -68,26 +70,58 @@ struct Params {
 @group(0) @binding(8) var<storage, read_write> ray_state: array<vec4<f32>>;
 // Per pixel: 1 once the ray is finished (written by every ray in the first pass).
 @group(0) @binding(9) var<storage, read_write> ray_done: array<u32>;
-// 1 where a cell of CELL^3 voxels may be visible under the current transfer function.
+// 1 where a cell of CELL^3 voxels may be visible under the current transfer
+// function; mip level l holds the same for cells of (CELL * 2^l)^3 voxels.
 @group(0) @binding(10) var occupancy: texture_3d<u32>;
 
-// Ray parameter at which the ray leaves the occupancy cell holding texture
-// coordinate `tc`, measured from that point, or -1 if the cell is occupied.
+// Ray parameter at which the ray leaves the largest empty occupancy cell
+// holding texture coordinate `tc`, measured from that point, or -1 if its
+// finest cell is occupied. Mip level l of `occupancy` has cells of CELL * 2^l
+// voxels; the last cell along an axis may extend further, so exiting at its
+// nominal size is early, never late.
+// The level-l cell above level-0 cell c0 (the last one absorbs remainders).
+fn level_cell(c0: vec3<i32>, l: u32) -> vec3<i32> {
+    return min(c0 >> vec3<u32>(l), vec3<i32>(textureDimensions(occupancy, l)) - 1);
+}
+
+fn level_empty(c0: vec3<i32>, l: u32) -> bool {
+    return textureLoad(occupancy, level_cell(c0, l), l).r == 0u;
+}
+
 fn empty_cell_exit(tc: vec3<f32>, d: vec3<f32>) -> f32 {
     let dims = vec3<f32>(textureDimensions(volume));
     let u = tc * dims;
-    let cells = vec3<i32>(textureDimensions(occupancy)) - 1;
-    let cell = clamp(vec3<i32>(floor(u / CELL)), vec3<i32>(0), cells);
-    if (textureLoad(occupancy, cell, 0).r != 0u) {
+    let c0 = max(vec3<i32>(floor(u / CELL)), vec3<i32>(0));
+    let levels = i32(P.occ_levels);
+    // Levels unrolled: a loop here is run wrongly by lavapipe (rays skipped
+    // occupied cells), while straight-line code is right on every driver.
+    var size = 0.0;
+    var lo = vec3<f32>(0.0);
+    if (level_empty(c0, 0u)) {
+        size = CELL;
+        lo = vec3<f32>(level_cell(c0, 0u)) * size;
+        if (levels > 1 && level_empty(c0, 1u)) {
+            size = 2.0 * CELL;
+            lo = vec3<f32>(level_cell(c0, 1u)) * size;
+            if (levels > 2 && level_empty(c0, 2u)) {
+                size = 4.0 * CELL;
+                lo = vec3<f32>(level_cell(c0, 2u)) * size;
+                if (levels > 3 && level_empty(c0, 3u)) {
+                    size = 8.0 * CELL;
+                    lo = vec3<f32>(level_cell(c0, 3u)) * size;
+                }
+            }
+        }
+    }
+    if (size == 0.0) {
         return -1.0;
     }
     // Voxel units per unit of t along the ray, in texture axis order.
     let du = (d * P.inv_extent.xyz).zyx * dims;
-    let lo = vec3<f32>(cell) * CELL;
     var exit = 3.0e38;
     for (var a = 0; a < 3; a++) {
         if (du[a] > 0.0) {
-            exit = min(exit, (lo[a] + CELL - u[a]) / du[a]);
+            exit = min(exit, (lo[a] + size - u[a]) / du[a]);
         } else if (du[a] < 0.0) {
             exit = min(exit, (lo[a] - u[a]) / du[a]);
         }

@@ -82,6 +82,35 @@ impl MinMaxGrid {
     }
 }
 
+/// Coarser levels of an occupancy grid for hierarchical skipping: level `l`
+/// has `max(1, d >> l)` cells per axis (a GPU mip chain's sizes); a cell is
+/// occupied if any level-0 cell under it is. The last cell along an axis also
+/// covers the remainder when `d` is not a multiple of `2^l`, so every level-0
+/// cell has a parent that knows it. Returns up to `levels` levels, level 0
+/// first, each with its dims.
+pub fn pyramid(occ: &[u8], dims: [usize; 3], levels: usize) -> Vec<(Vec<u8>, [usize; 3])> {
+    let mut out = vec![(occ.to_vec(), dims)];
+    for l in 1..levels {
+        let ld = dims.map(|d| (d >> l).max(1));
+        // Level-0 index range under cell c of level l along an axis.
+        let span = |c: usize, n: usize, d: usize| (c << l)..if c + 1 == n { d } else { ((c + 1) << l).min(d) };
+        let mut level = vec![0u8; ld[0] * ld[1] * ld[2]];
+        for a in 0..ld[0] {
+            for b in 0..ld[1] {
+                for c in 0..ld[2] {
+                    let any = span(a, ld[0], dims[0]).any(|i| {
+                        span(b, ld[1], dims[1])
+                            .any(|j| span(c, ld[2], dims[2]).any(|k| occ[(i * dims[1] + j) * dims[2] + k] != 0))
+                    });
+                    level[(a * ld[1] + b) * ld[2] + c] = any as u8;
+                }
+            }
+        }
+        out.push((level, ld));
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -105,6 +134,18 @@ mod tests {
         data[8] = 0.95;
         let v = VolumeView::new([1, 1, 24], Voxels::F32(&data), None, Bounds::default()).unwrap();
         assert_eq!(MinMaxGrid::build(&v).max, vec![0.95, 0.95, 0.5]);
+    }
+
+    #[test]
+    fn pyramid_covers_remainders() {
+        // 5 cells along one axis; only the last is occupied. Level 1 has 2
+        // cells: the second covers cells 2..5 including the remainder.
+        let occ = vec![0, 0, 0, 0, 1];
+        let p = pyramid(&occ, [1, 1, 5], 3);
+        assert_eq!(p[1], (vec![0, 1], [1, 1, 2]));
+        assert_eq!(p[2], (vec![1], [1, 1, 1]));
+        let p = pyramid(&[0, 1, 0, 0], [1, 1, 4], 2);
+        assert_eq!(p[1].0, vec![1, 0]);
     }
 
     #[test]

@@ -6,7 +6,7 @@ use super::context::{GpuContext, GpuError};
 use super::half::f32_to_f16;
 use super::pipeline::{Pipelines, Variant, WORKGROUP};
 use crate::config::RenderConfig;
-use crate::occupancy::MinMaxGrid;
+use crate::occupancy::{pyramid, MinMaxGrid};
 use crate::scene::{Bounds, Camera, Light, LightKind, Shading};
 use crate::volume::{sanitize, VolumeView, Voxels};
 use bytemuck::{Pod, Zeroable};
@@ -40,7 +40,8 @@ struct Params {
     pass_steps: u32,
     first_pass: u32,
     last_pass: u32,
-    _pad: [u32; 2],
+    occ_levels: u32,
+    _pad: u32,
 }
 
 /// Steps one dispatch marches at most. Below lavapipe's 65535-iteration loop
@@ -135,6 +136,8 @@ pub struct GpuRenderer {
     /// Some cell is visible: when none is, the frame is transparent and no
     /// ray needs marching (the root of the skipping hierarchy).
     any_occupied: bool,
+    /// Mip levels of the occupancy texture (cells of 8, 16, 32, 64 voxels).
+    occ_levels: u32,
     /// Leap over empty cells (on by default; off to measure what it saves).
     pub skip_empty: bool,
     bound_hw_filter: bool,
@@ -223,6 +226,7 @@ impl GpuRenderer {
             occupancy: None,
             any_empty: false,
             any_occupied: true,
+            occ_levels: 1,
             skip_empty: true,
             bound_hw_filter: false,
             shader_filtering: false,
@@ -455,6 +459,10 @@ impl GpuRenderer {
         };
         let occ = vol.grid.occupancy(&self.lut_rows);
         let [g0, g1, g2] = vol.grid.dims;
+        // Up to 4 levels (cells of 8, 16, 32, 64 voxels), as a mip chain allows.
+        let largest = g0.max(g1).max(g2) as u32;
+        let levels = (32 - largest.leading_zeros()).clamp(1, 4) as usize;
+        let data: Vec<u8> = pyramid(&occ, vol.grid.dims, levels).into_iter().flat_map(|(l, _)| l).collect();
         let device = &self.ctx.device;
         let queue = &self.ctx.queue;
         let view = self.ctx.scoped("uploading the occupancy grid", || {
@@ -464,7 +472,7 @@ impl GpuRenderer {
                     &wgpu::TextureDescriptor {
                         label: Some("occupancy"),
                         size: wgpu::Extent3d { width: g2 as u32, height: g1 as u32, depth_or_array_layers: g0 as u32 },
-                        mip_level_count: 1,
+                        mip_level_count: levels as u32,
                         sample_count: 1,
                         dimension: wgpu::TextureDimension::D3,
                         format: wgpu::TextureFormat::R8Uint,
@@ -472,13 +480,14 @@ impl GpuRenderer {
                         view_formats: &[],
                     },
                     wgpu::util::TextureDataOrder::LayerMajor,
-                    &occ,
+                    &data,
                 )
                 .create_view(&Default::default())
         })?;
-        self.pending_upload += occ.len() as u64;
+        self.pending_upload += data.len() as u64;
         self.any_empty = occ.contains(&0);
         self.any_occupied = occ.contains(&1);
+        self.occ_levels = levels as u32;
         self.occupancy = Some(view);
         self.bind_group = None;
         Ok(())
@@ -524,7 +533,8 @@ impl GpuRenderer {
             pass_steps: PASS_STEPS,
             first_pass: 1,
             last_pass: 1,
-            _pad: [0; 2],
+            occ_levels: self.occ_levels,
+            _pad: 0,
         })
     }
 
