@@ -116,6 +116,42 @@ impl GpuContext {
         Ok(out)
     }
 
+    /// A sampled texture filled with `data` (mip levels one after another),
+    /// created inside error scopes; `what` names the step in errors. The view
+    /// keeps the texture alive.
+    #[allow(clippy::too_many_arguments)]
+    pub fn texture_with_data(
+        &self,
+        what: &str,
+        label: &str,
+        size: wgpu::Extent3d,
+        dimension: wgpu::TextureDimension,
+        format: wgpu::TextureFormat,
+        mip_level_count: u32,
+        data: &[u8],
+    ) -> Result<wgpu::TextureView, GpuError> {
+        use wgpu::util::DeviceExt;
+        self.scoped(what, || {
+            self.device
+                .create_texture_with_data(
+                    &self.queue,
+                    &wgpu::TextureDescriptor {
+                        label: Some(label),
+                        size,
+                        mip_level_count,
+                        sample_count: 1,
+                        dimension,
+                        format,
+                        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+                        view_formats: &[],
+                    },
+                    wgpu::util::TextureDataOrder::LayerMajor,
+                    data,
+                )
+                .create_view(&Default::default())
+        })
+    }
+
     /// Largest storage buffer one binding can see: bounds the output image
     /// (16 bytes per pixel) and the per-pixel ray state.
     pub fn max_storage_bytes(&self) -> u64 {

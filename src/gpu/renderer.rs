@@ -12,7 +12,6 @@ use crate::volume::{sanitize, VolumeView, Voxels};
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
 use std::sync::{Arc, OnceLock};
-use wgpu::util::DeviceExt;
 
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable, Debug, Default)]
@@ -53,11 +52,10 @@ fn v4(v: DVec3) -> [f32; 4] {
 }
 
 struct VolumeGpu {
-    _texture: wgpu::Texture,
     /// The stored format can be filtered by the sampler.
     filterable: bool,
     view: wgpu::TextureView,
-    normals: Option<(wgpu::Texture, wgpu::TextureView)>,
+    normals: Option<wgpu::TextureView>,
     dims: [usize; 3],
     bounds: Bounds,
     bytes: u64,
@@ -343,29 +341,9 @@ impl GpuRenderer {
                 }
             }
         };
-        let device = &ctx.device;
-        let queue = &ctx.queue;
-        let make = |label: &str, format, data: &[u8], bpp: u32| {
-            let tex = device.create_texture_with_data(
-                queue,
-                &wgpu::TextureDescriptor {
-                    label: Some(label),
-                    size,
-                    mip_level_count: 1,
-                    sample_count: 1,
-                    dimension: wgpu::TextureDimension::D3,
-                    format,
-                    usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-                    view_formats: &[],
-                },
-                wgpu::util::TextureDataOrder::LayerMajor,
-                data,
-            );
-            debug_assert_eq!(data.len() as u64, size.width as u64 * size.height as u64 * size.depth_or_array_layers as u64 * bpp as u64);
-            let view = tex.create_view(&Default::default());
-            (tex, view)
-        };
-        let (texture, view) = ctx.scoped("uploading the volume", || make("volume", format, bytes, bpp))?;
+        debug_assert_eq!(bytes.len(), s0 * s1 * s2 * bpp as usize);
+        let d3 = wgpu::TextureDimension::D3;
+        let view = ctx.texture_with_data("uploading the volume", "volume", size, d3, format, 1, bytes)?;
         // R8Unorm is filtered in the shader: lavapipe's 8-bit filtering path
         // returns results quantised to 1/255, which loses faint structure
         // (measured: alpha 0.006 instead of 0.029 at a sphere's rim).
@@ -384,11 +362,12 @@ impl GpuRenderer {
                 }
                 let data: &[u8] = bytemuck::cast_slice(&packed);
                 total += data.len() as u64;
-                Some(ctx.scoped("uploading the normals", || make("normals", wgpu::TextureFormat::Rgba16Float, data, 8))?)
+                let f16x4 = wgpu::TextureFormat::Rgba16Float;
+                Some(ctx.texture_with_data("uploading the normals", "normals", size, d3, f16x4, 1, data)?)
             }
         };
         let grid = MinMaxGrid::build(vol);
-        self.volume = Some(VolumeGpu { _texture: texture, filterable, view, normals, dims: vol.dims, bounds: vol.bounds, bytes: total, grid });
+        self.volume = Some(VolumeGpu { filterable, view, normals, dims: vol.dims, bounds: vol.bounds, bytes: total, grid });
         self.bind_group = None;
         if !self.lut_rows.is_empty() {
             self.update_occupancy()?;
@@ -420,26 +399,9 @@ impl GpuRenderer {
             let h: Vec<u16> = lut.iter().flatten().map(|&v| f32_to_f16(v)).collect();
             (wgpu::TextureFormat::Rgba16Float, bytemuck::cast_slice(&h).to_vec())
         };
-        let device = &self.ctx.device;
-        let queue = &self.ctx.queue;
-        let view = self.ctx.scoped("uploading the transfer function", || {
-            let tex = device.create_texture_with_data(
-                queue,
-                &wgpu::TextureDescriptor {
-                    label: Some("lut"),
-                    size: wgpu::Extent3d { width: lut.len() as u32, height: 1, depth_or_array_layers: 1 },
-                    mip_level_count: 1,
-                    sample_count: 1,
-                    dimension: wgpu::TextureDimension::D2,
-                    format,
-                    usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-                    view_formats: &[],
-                },
-                wgpu::util::TextureDataOrder::LayerMajor,
-                &bytes,
-            );
-            tex.create_view(&Default::default())
-        })?;
+        let size = wgpu::Extent3d { width: lut.len() as u32, height: 1, depth_or_array_layers: 1 };
+        let d2 = wgpu::TextureDimension::D2;
+        let view = self.ctx.texture_with_data("uploading the transfer function", "lut", size, d2, format, 1, &bytes)?;
         self.lut = Some((view, lut.len() as u32));
         self.lut_rows = lut.to_vec();
         self.bind_group = None;
@@ -463,27 +425,9 @@ impl GpuRenderer {
         let largest = g0.max(g1).max(g2) as u32;
         let levels = (32 - largest.leading_zeros()).clamp(1, 4) as usize;
         let data: Vec<u8> = pyramid(&occ, vol.grid.dims, levels).into_iter().flat_map(|(l, _)| l).collect();
-        let device = &self.ctx.device;
-        let queue = &self.ctx.queue;
-        let view = self.ctx.scoped("uploading the occupancy grid", || {
-            device
-                .create_texture_with_data(
-                    queue,
-                    &wgpu::TextureDescriptor {
-                        label: Some("occupancy"),
-                        size: wgpu::Extent3d { width: g2 as u32, height: g1 as u32, depth_or_array_layers: g0 as u32 },
-                        mip_level_count: levels as u32,
-                        sample_count: 1,
-                        dimension: wgpu::TextureDimension::D3,
-                        format: wgpu::TextureFormat::R8Uint,
-                        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-                        view_formats: &[],
-                    },
-                    wgpu::util::TextureDataOrder::LayerMajor,
-                    &data,
-                )
-                .create_view(&Default::default())
-        })?;
+        let size = wgpu::Extent3d { width: g2 as u32, height: g1 as u32, depth_or_array_layers: g0 as u32 };
+        let (d3, r8) = (wgpu::TextureDimension::D3, wgpu::TextureFormat::R8Uint);
+        let view = self.ctx.texture_with_data("uploading the occupancy grid", "occupancy", size, d3, r8, levels as u32, &data)?;
         self.pending_upload += data.len() as u64;
         self.any_empty = occ.contains(&0);
         self.any_occupied = occ.contains(&1);
@@ -595,7 +539,7 @@ impl GpuRenderer {
         if self.bind_group.is_none() {
             let output = self.output.as_ref().expect("resize() always leaves an output");
             let (lut, _) = self.lut.as_ref().expect("checked above");
-            let normals = vol.normals.as_ref().map_or(&self.dummy_normals, |(_, v)| v);
+            let normals = vol.normals.as_ref().unwrap_or(&self.dummy_normals);
             let occupancy = self
                 .occupancy
                 .as_ref()
