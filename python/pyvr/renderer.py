@@ -36,7 +36,7 @@ def prepare_voxels(data: np.ndarray) -> np.ndarray:
         return np.ascontiguousarray(a)
     if a.dtype == np.bool_:
         return np.ascontiguousarray(a, dtype=np.uint8) * np.uint8(255)
-    if not (np.issubdtype(a.dtype, np.number) or a.dtype == np.bool_) or np.issubdtype(a.dtype, np.complexfloating):
+    if not np.issubdtype(a.dtype, np.number) or np.issubdtype(a.dtype, np.complexfloating):
         raise TypeError(f"Volume data must be a real numeric array, got dtype {a.dtype}")
     return np.ascontiguousarray(a, dtype=np.float32)
 
