@@ -1,9 +1,19 @@
-// Emission–absorption ray marching, one invocation per pixel.
+// Ray marching, one invocation per pixel, for every model of src/model.rs.
 // The marching rule is the one in src/integrate.rs (the f64 oracle): the chord
-// through the box is cut into step-long segments (the last one shorter), each
-// sampled at its midpoint and weighted by its own length.
+// through the box is cut into step-long segments (the last one shorter, and
+// with jitter the first one too), each sampled at its midpoint and weighted
+// by its own length.
+
+// src/model.rs order: 0 emission_absorption, 1 absorption, 2 emission,
+// 3 single_scattering, 4 mip, 5 minip, 6 average, 7 isosurface.
+override MODEL: u32 = 0u;
+override BACK_TO_FRONT: bool = false;
+override JITTER: bool = false;
+// Emission–absorption from the (front, back) table instead of the midpoint.
+override PRE_INTEGRATED: bool = false;
 
 // 0: ambient only (no normals read), 1: supplied normals, 2: on-the-fly gradient.
+// Single scattering reads no normals: there 0 means no diffuse term, else lit.
 override SHADING: u32 = 0u;
 override POINT_LIGHT: bool = false;
 override EARLY_TERMINATION: bool = true;
@@ -15,8 +25,8 @@ override HW_FILTER: bool = true;
 // Skip cells of the occupancy grid that the transfer function leaves empty.
 override SKIP_EMPTY: bool = true;
 
-// Samples per partial sum (a power of two).
-const BLOCK: u32 = 256u;
+// Samples per partial sum: 2^BLOCK_SHIFT.
+const BLOCK_SHIFT: u32 = 8u;
 // Voxels per occupancy cell along each axis (src/occupancy.rs).
 const CELL: f32 = 8.0;
 
@@ -51,7 +61,9 @@ struct Params {
     // Mip levels of `occupancy` (passed in: textureNumLevels is not reliable
     // on every driver).
     occ_levels: u32,
-    _pad1: u32,
+    jitter_seed: u32,
+    // (iso_value, Henyey–Greenstein g, shadow step, pre-integration table side)
+    model_params: vec4<f32>,
 };
 
 @group(0) @binding(0) var<uniform> P: Params;
@@ -73,6 +85,9 @@ struct Params {
 // 1 where a cell of CELL^3 voxels may be visible under the current transfer
 // function; mip level l holds the same for cells of (CELL * 2^l)^3 voxels.
 @group(0) @binding(10) var occupancy: texture_3d<u32>;
+// Pre-integrated segments (src/preintegrate.rs): x = front value, y = back
+// value; rgb = premultiplied colour, a = optical depth of one full step.
+@group(0) @binding(11) var preint: texture_2d<f32>;
 
 // Ray parameter at which the ray leaves the largest empty occupancy cell
 // holding texture coordinate `tc`, measured from that point, or -1 if its
@@ -240,6 +255,476 @@ fn count_samples(k: u32) {
     }
 }
 
+// src/model.rs: hash32 and jitter_shift, bit for bit.
+fn hash32(x0: u32) -> u32 {
+    var x = x0;
+    x ^= x >> 16u;
+    x *= 0x7feb352du;
+    x ^= x >> 15u;
+    x *= 0x846ca68bu;
+    x ^= x >> 16u;
+    return x;
+}
+
+fn jitter_shift(col: u32, row: u32) -> f32 {
+    let h = hash32(col ^ hash32(row ^ hash32(P.jitter_seed)));
+    return -f32(h >> 8u) * (1.0 / 16777216.0);
+}
+
+// One ray: its chord [t0, t0 + chord] and segment grid (shift in (-1, 0]
+// steps), and the segments this pass marches, [begin, end).
+struct Ray {
+    idx: u32,
+    o: vec3<f32>,
+    d: vec3<f32>,
+    t0: f32,
+    chord: f32,
+    shift: f32,
+    n: u32,
+    needed: u32,
+    begin: u32,
+    end: u32,
+};
+
+// Segment i: (offset of its start from t0, its length).
+fn span(r: Ray, i: u32) -> vec2<f32> {
+    let h = P.step_size;
+    let a = f32(i) * h + r.shift * h;
+    if (a < 0.0) {
+        return vec2<f32>(0.0, min((1.0 + r.shift) * h, r.chord));
+    }
+    return vec2<f32>(a, max(min(h, r.chord - a), 0.0));
+}
+
+fn point_at(r: Ray, offset: f32) -> vec3<f32> {
+    return r.o + r.d * (r.t0 + offset);
+}
+
+fn tex_of(p: vec3<f32>) -> vec3<f32> {
+    return (p * P.inv_extent.xyz).zyx;
+}
+
+// 4π p(cos θ) of Henyey–Greenstein (1 when g = 0: isotropic).
+fn phase_4pi(cos_theta: f32) -> f32 {
+    let g = P.model_params.y;
+    if (g == 0.0) {
+        return 1.0;
+    }
+    let denom = 1.0 + g * g - 2.0 * g * cos_theta;
+    return (1.0 - g * g) / (denom * sqrt(denom));
+}
+
+// Light reaching p through the volume along the shadow ray (midpoint rule,
+// shadow step, stopping once its optical depth passes 16). Adds the samples
+// it took to `taken`.
+fn light_transmittance(p: vec3<f32>, taken: ptr<function, u32>) -> f32 {
+    var to_light: vec3<f32>;
+    var reach = 3.0e38;
+    if (POINT_LIGHT) {
+        let v = P.light_pos.xyz - p;
+        let l = length(v);
+        if (!(l > 0.0)) {
+            return 1.0;
+        }
+        to_light = v / l;
+        reach = l;
+    } else {
+        to_light = -P.light_dir.xyz;
+    }
+    var exit = 3.0e38;
+    for (var a = 0; a < 3; a++) {
+        if (to_light[a] > 0.0) {
+            exit = min(exit, (P.extent[a] - p[a]) / to_light[a]);
+        } else if (to_light[a] < 0.0) {
+            exit = min(exit, -p[a] / to_light[a]);
+        }
+    }
+    let len = max(min(exit, reach), 0.0);
+    let hs = P.model_params.z;
+    let n = u32(ceil(len / hs));
+    var tau = 0.0;
+    var k = 0u;
+    for (var j = 0u; j < n; j++) {
+        let s0 = f32(j) * hs;
+        let seg = min(hs, len - s0);
+        if (seg <= 0.0) {
+            break;
+        }
+        let v = value_at(tex_of(p + to_light * (s0 + 0.5 * seg)));
+        k += 1u;
+        if (is_nan(v)) {
+            continue;
+        }
+        tau += extinction(eval_lut(v).a) * (seg * P.inv_ref);
+        if (tau > 16.0) {
+            break;
+        }
+    }
+    *taken += k;
+    return exp(-tau);
+}
+
+// Single scattering: ambient + diffuse * phase * light transmittance.
+fn scatter_intensity(p: vec3<f32>, d: vec3<f32>, taken: ptr<function, u32>) -> f32 {
+    if (SHADING == 0u) {
+        return P.ambient;
+    }
+    var l: vec3<f32>;
+    if (POINT_LIGHT) {
+        let v = p - P.light_pos.xyz;
+        let dl = length(v);
+        if (!(dl > 0.0)) {
+            return P.ambient;
+        }
+        l = v / dl;
+    } else {
+        if (P.light_valid == 0u) {
+            return P.ambient;
+        }
+        l = P.light_dir.xyz;
+    }
+    return P.ambient + P.diffuse * phase_4pi(dot(l, -d)) * light_transmittance(p, taken);
+}
+
+fn surface_intensity(p: vec3<f32>) -> f32 {
+    if (SHADING == 1u) {
+        return light_intensity(supplied_normal(tex_of(p)), p);
+    }
+    if (SHADING == 2u) {
+        return light_intensity(gradient(tex_of(p)), p);
+    }
+    return P.ambient;
+}
+
+fn preint_lookup(vf: f32, vb: f32) -> vec4<f32> {
+    let m = P.model_params.w;
+    let uv = (clamp(vec2<f32>(vf, vb), vec2<f32>(0.0), vec2<f32>(1.0)) * (m - 1.0) + 0.5) / m;
+    return textureSampleLevel(preint, linear_sampler, uv, 0.0);
+}
+
+// Where a finished ray's pixel goes; rays that continue keep their state.
+fn finish(r: Ray, rgba: vec4<f32>) {
+    out_rgba[r.idx] = rgba;
+    if (!(P.first_pass == 1u && P.last_pass == 1u)) {
+        ray_done[r.idx] = 1u;
+    }
+}
+
+fn suspend(r: Ray, state: vec4<f32>) {
+    ray_state[r.idx] = state;
+    if (P.first_pass == 1u) {
+        ray_done[r.idx] = 0u;
+    }
+}
+
+fn report_truncation(r: Ray) {
+    if (r.n < r.needed) {
+        atomicMax(&stats[0], r.needed);
+    }
+}
+
+// Emission–absorption, absorption, emission and single scattering: the
+// optical depth is summed along the ray (tau), transmittance is exp(-tau).
+fn march_integrate(r: Ray) {
+    // Transmittance is exp(-tau) of the optical depth summed so far, not a
+    // running product of (1 - alpha): a product loses every segment whose
+    // alpha is below f32's half-ulp of 1 (6e-8), which tiny steps produce.
+    // Sums are blocked: 2^BLOCK_SHIFT samples add into a small partial sum that is
+    // folded into the total, so a million tiny terms keep their precision
+    // (compensated sums would be undone by compilers that reassociate).
+    var color = vec3<f32>(0.0);
+    var tau = 0.0;
+    if (P.first_pass == 0u) {
+        let st = ray_state[r.idx];
+        color = st.xyz;
+        tau = st.w;
+    }
+    var color_b = vec3<f32>(0.0);
+    var tau_b = 0.0;
+    var trans = exp(-tau);
+    var stopped = false;
+    var taken = 0u;
+    var blocks = 0u;
+    // The value at segment boundary `carry_at` (pre-integration shares each
+    // boundary between two segments).
+    var carry_at = 0xffffffffu;
+    var carry_v = 0.0;
+    let h = P.step_size;
+    for (var i = r.begin; i < r.end; i++) {
+        var si = i;
+        if (BACK_TO_FRONT) {
+            si = r.n - 1u - i;
+        }
+        let sp = span(r, si);
+        let lo = sp.x;
+        let seg = sp.y;
+        let mid = lo + 0.5 * seg;
+        let p = point_at(r, mid);
+        let tc = tex_of(p);
+        var x = 0.0;
+        var add = vec3<f32>(0.0);
+        if (PRE_INTEGRATED && seg == h) {
+            var vf: f32;
+            var vb: f32;
+            if (BACK_TO_FRONT) {
+                vb = select(value_at(tex_of(point_at(r, lo + h))), carry_v, carry_at == si + 1u);
+                vf = value_at(tex_of(point_at(r, lo)));
+                carry_at = si;
+                carry_v = vf;
+            } else {
+                vf = select(value_at(tex_of(point_at(r, lo))), carry_v, carry_at == si);
+                vb = value_at(tex_of(point_at(r, lo + h)));
+                carry_at = si + 1u;
+                carry_v = vb;
+            }
+            taken += 1u;
+            if (!is_nan(vf) && !is_nan(vb)) {
+                let e = preint_lookup(vf, vb);
+                x = e.a;
+                add = e.rgb;
+            }
+        } else {
+            let v = value_at(tc);
+            let valid = !is_nan(v);
+            let rgba = eval_lut(select(0.0, v, valid));
+            let sigma = extinction(select(0.0, rgba.a, valid));
+            x = select(0.0, min(sigma * (seg * P.inv_ref), 1.0e30), sigma > 0.0 && seg > 0.0);
+            if (SKIP_EMPTY && !(x > 0.0)) {
+                // This sample is empty; if its whole cell is, jump to the first
+                // sample past the cell (a thousandth of a step early, so that
+                // rounding can never skip a sample of the next cell).
+                var dir = r.d;
+                if (BACK_TO_FRONT) {
+                    dir = -r.d;
+                }
+                let exit = empty_cell_exit(tc, dir);
+                if (exit >= 0.0) {
+                    taken += 1u;
+                    var next: u32;
+                    if (BACK_TO_FRONT) {
+                        // Highest segment whose midpoint lies before the cell's near side.
+                        let k = ceil((mid - exit) / h - 0.5 - r.shift + 1e-3) - 1.0;
+                        let ki = i32(clamp(k, -1.0, f32(si) - 1.0));
+                        next = u32(clamp(i32(r.n) - 1 - ki, i32(i) + 1, i32(r.end)));
+                    } else {
+                        let k = ceil((mid + exit) / h - 0.5 - r.shift - 1e-3);
+                        next = u32(clamp(k, f32(i + 1u), f32(r.end)));
+                    }
+                    i = next - 1u;
+                    continue;
+                }
+            }
+            taken += 1u;
+            if (MODEL == 2u) {
+                add = x * rgba.rgb;
+            } else if (MODEL != 1u) {
+                add = one_minus_exp_neg(x) * rgba.rgb;
+            }
+        }
+        if (MODEL != 1u && x > 0.0) {
+            if (MODEL == 3u) {
+                add *= scatter_intensity(p, r.d, &taken);
+            } else if (SHADING != 0u) {
+                add *= surface_intensity(p);
+            } else {
+                add *= P.ambient;
+            }
+        }
+        if (BACK_TO_FRONT) {
+            // From the far end: C = c_i + exp(-x_i) C. No early stop.
+            if (MODEL == 2u) {
+                color += add;
+            } else {
+                color = add + exp(-x) * color;
+            }
+        } else {
+            color_b += trans * add;
+        }
+        if (MODEL == 2u) {
+            if ((taken >> BLOCK_SHIFT) != blocks) {
+                blocks = taken >> BLOCK_SHIFT;
+                color += color_b;
+                color_b = vec3<f32>(0.0);
+            }
+            continue;
+        }
+        tau_b += x;
+        if ((taken >> BLOCK_SHIFT) != blocks) {
+            blocks = taken >> BLOCK_SHIFT;
+            color += color_b;
+            tau += tau_b;
+            color_b = vec3<f32>(0.0);
+            tau_b = 0.0;
+        }
+        if (!BACK_TO_FRONT) {
+            trans = exp(-(tau + tau_b));
+            // Threshold 0 means: stop at the first sample that is not empty.
+            if (EARLY_TERMINATION && tau + tau_b > 0.0 && 1.0 - trans >= P.threshold) {
+                stopped = true;
+                break;
+            }
+            // Below this nothing behind can show in 8 bits or even float.
+            if (trans < 1e-30) {
+                trans = 0.0;
+                stopped = true;
+                break;
+            }
+        }
+    }
+    color += color_b;
+    tau += tau_b;
+    count_samples(taken);
+    if (!stopped && r.end < r.n) {
+        suspend(r, vec4<f32>(color, tau));
+        return;
+    }
+    if (!stopped) {
+        report_truncation(r);
+        trans = exp(-tau);
+    }
+    var alpha = 1.0 - trans;
+    if (MODEL == 2u) {
+        alpha = 0.0;
+    }
+    finish(r, vec4<f32>(color, alpha));
+}
+
+// Maximum, minimum and average intensity of the samples (NaN skipped);
+// the pixel is the transfer function's premultiplied RGBA of that value.
+fn march_project(r: Ray) {
+    // (best or length-weighted sum, 1 if any sample or summed length, -, -)
+    var st = vec4<f32>(0.0);
+    if (P.first_pass == 0u) {
+        st = ray_state[r.idx];
+    }
+    var taken = 0u;
+    for (var i = r.begin; i < r.end; i++) {
+        let sp = span(r, i);
+        if (!(sp.y > 0.0)) {
+            continue;
+        }
+        let v = value_at(tex_of(point_at(r, sp.x + 0.5 * sp.y)));
+        taken += 1u;
+        if (is_nan(v)) {
+            continue;
+        }
+        if (MODEL == 6u) {
+            st.x += v * sp.y;
+            st.y += sp.y;
+        } else if (st.y == 0.0) {
+            st = vec4<f32>(v, 1.0, 0.0, 0.0);
+        } else if (MODEL == 4u) {
+            st.x = max(st.x, v);
+        } else {
+            st.x = min(st.x, v);
+        }
+    }
+    count_samples(taken);
+    if (r.end < r.n) {
+        suspend(r, st);
+        return;
+    }
+    report_truncation(r);
+    if (!(st.y > 0.0)) {
+        finish(r, vec4<f32>(0.0));
+        return;
+    }
+    var v = st.x;
+    if (MODEL == 6u) {
+        v = st.x / st.y;
+    }
+    let c = eval_lut(v);
+    finish(r, vec4<f32>(c.rgb * c.a, c.a));
+}
+
+fn below_iso(v: f32) -> bool {
+    // NaN counts as outside.
+    return !(v >= P.model_params.x);
+}
+
+// First point where the value reaches iso_value: the entry, each segment's
+// midpoint and the exit are tested; the crossing is then bracketed by
+// bisection and placed by a secant step. The hit's ray parameter goes to
+// ray_state.x (infinity on a miss) for the depth image.
+fn march_iso(r: Ray) {
+    let iso = P.model_params.x;
+    var prev = 0.0;
+    var prev_v = 0.0;
+    var taken = 0u;
+    var found = false;
+    var hit = 0.0;
+    if (P.first_pass == 0u) {
+        let st = ray_state[r.idx];
+        prev = st.x;
+        prev_v = st.y;
+    } else {
+        prev_v = value_at(tex_of(point_at(r, 0.0)));
+        taken += 1u;
+        if (!below_iso(prev_v)) {
+            found = true;
+        }
+    }
+    var i = r.begin;
+    loop {
+        if (found) {
+            break;
+        }
+        var at: f32;
+        if (i < r.end) {
+            let sp = span(r, i);
+            at = sp.x + 0.5 * sp.y;
+        } else if (i == r.n && r.n == r.needed) {
+            at = r.chord;
+        } else {
+            break;
+        }
+        i += 1u;
+        let v = value_at(tex_of(point_at(r, at)));
+        taken += 1u;
+        if (!below_iso(v)) {
+            var lo = prev;
+            var hi = at;
+            var vlo = prev_v;
+            var vhi = v;
+            for (var k = 0u; k < 8u; k++) {
+                let m = 0.5 * (lo + hi);
+                let vm = value_at(tex_of(point_at(r, m)));
+                if (below_iso(vm)) {
+                    lo = m;
+                    vlo = vm;
+                } else {
+                    hi = m;
+                    vhi = vm;
+                }
+            }
+            taken += 8u;
+            hit = hi;
+            if (!is_nan(vlo) && vhi > vlo) {
+                hit = lo + (hi - lo) * clamp((iso - vlo) / (vhi - vlo), 0.0, 1.0);
+            }
+            found = true;
+            break;
+        }
+        prev = at;
+        prev_v = v;
+    }
+    count_samples(taken);
+    if (!found && r.end < r.n) {
+        suspend(r, vec4<f32>(prev, prev_v, 0.0, 0.0));
+        return;
+    }
+    if (!found) {
+        report_truncation(r);
+        ray_state[r.idx] = vec4<f32>(bitcast<f32>(0x7f800000u), 0.0, 0.0, 0.0);
+        finish(r, vec4<f32>(0.0));
+        return;
+    }
+    let p = point_at(r, hit);
+    let c = eval_lut(iso);
+    ray_state[r.idx] = vec4<f32>(r.t0 + hit, 0.0, 0.0, 0.0);
+    finish(r, vec4<f32>(c.rgb * surface_intensity(p), 1.0));
+}
+
 @compute @workgroup_size(8, 8, 1)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (gid.x >= P.width || gid.y >= P.height) {
@@ -247,6 +732,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     // Row 0 is the bottom of the image, as pyvr returns it.
     let idx = gid.y * P.width + gid.x;
+    if (P.first_pass == 0u && ray_done[idx] != 0u) {
+        return;
+    }
     let ndc = vec2<f32>(
         2.0 * (f32(gid.x) + 0.5) / f32(P.width) - 1.0,
         2.0 * (f32(gid.y) + 0.5) / f32(P.height) - 1.0,
@@ -272,115 +760,37 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             t1 = min(t1, max(ta, tb));
         }
     }
-    let single_pass = P.first_pass == 1u && P.last_pass == 1u;
-    if (P.first_pass == 0u && ray_done[idx] != 0u) {
-        return;
-    }
+    var r: Ray;
+    r.idx = idx;
     if (!hit || t0 > t1 || t1 <= 0.0) {
-        out_rgba[idx] = vec4<f32>(0.0);
-        if (!single_pass) {
-            ray_done[idx] = 1u;
+        if (MODEL == 7u) {
+            ray_state[idx] = vec4<f32>(bitcast<f32>(0x7f800000u), 0.0, 0.0, 0.0);
         }
+        finish(r, vec4<f32>(0.0));
         return;
     }
     t0 = max(t0, 0.0);
-    let chord = t1 - t0;
-    let needed_f = ceil(chord / P.step_size);
-    let needed = u32(min(needed_f, 4.0e9));
-    let n = min(needed, P.max_steps);
-
-    // Transmittance is exp(-tau) of the optical depth summed so far, not a
-    // running product of (1 - alpha): a product loses every segment whose
-    // alpha is below f32's half-ulp of 1 (6e-8), which tiny steps produce.
-    // Sums are blocked: BLOCK samples add into a small partial sum that is
-    // folded into the total, so a million tiny terms keep their precision
-    // (compensated sums would be undone by compilers that reassociate).
-    var color = vec3<f32>(0.0);
-    var tau = 0.0;
-    if (P.first_pass == 0u) {
-        let st = ray_state[idx];
-        color = st.xyz;
-        tau = st.w;
+    r.o = o;
+    r.d = d;
+    r.t0 = t0;
+    r.chord = t1 - t0;
+    r.shift = 0.0;
+    if (JITTER) {
+        r.shift = jitter_shift(gid.x, gid.y);
     }
-    var color_b = vec3<f32>(0.0);
-    var tau_b = 0.0;
-    var trans = exp(-tau);
-    var stopped = false;
-    var end = n;
+    let needed_f = ceil(r.chord / P.step_size - r.shift);
+    r.needed = u32(min(needed_f, 4.0e9));
+    r.n = min(r.needed, P.max_steps);
+    r.begin = P.pass_start;
+    r.end = r.n;
     if (P.last_pass == 0u) {
-        end = min(n, P.pass_start + P.pass_steps);
+        r.end = min(r.n, P.pass_start + P.pass_steps);
     }
-    var taken = 0u;
-    for (var i = P.pass_start; i < end; i++) {
-        let s0 = t0 + f32(i) * P.step_size;
-        let seg = max(min(P.step_size, t1 - s0), 0.0);
-        let p = o + d * (s0 + 0.5 * seg);
-        let tc = (p * P.inv_extent.xyz).zyx;
-        let v = value_at(tc);
-        let valid = !is_nan(v);
-        let rgba = eval_lut(select(0.0, v, valid));
-        let sigma = extinction(select(0.0, rgba.a, valid));
-        let x = select(0.0, min(sigma * (seg * P.inv_ref), 1.0e30), sigma > 0.0 && seg > 0.0);
-        let alpha = one_minus_exp_neg(x);
-        if (SKIP_EMPTY && !(alpha > 0.0)) {
-            // This sample is empty; if its whole cell is, jump to the first
-            // sample past the cell (a thousandth of a step early, so that
-            // rounding can never skip a sample of the next cell).
-            let exit = empty_cell_exit(tc, d);
-            if (exit >= 0.0) {
-                let t_exit = s0 + 0.5 * seg + exit;
-                let first_outside = ceil((t_exit - t0) / P.step_size - 0.5 - 1e-3);
-                let next = u32(clamp(first_outside, f32(i + 1u), f32(end)));
-                taken += 1u;
-                i = next - 1u;
-                continue;
-            }
-        }
-        taken += 1u;
-        var intensity = P.ambient;
-        if (SHADING != 0u && alpha > 0.0) {
-            if (SHADING == 1u) {
-                intensity = light_intensity(supplied_normal(tc), p);
-            } else {
-                intensity = light_intensity(gradient(tc), p);
-            }
-        }
-        color_b += (trans * alpha * intensity) * rgba.rgb;
-        tau_b += x;
-        if ((taken & (BLOCK - 1u)) == 0u) {
-            color += color_b;
-            tau += tau_b;
-            color_b = vec3<f32>(0.0);
-            tau_b = 0.0;
-        }
-        trans = exp(-(tau + tau_b));
-        // Threshold 0 means: stop at the first sample that is not empty.
-        if (EARLY_TERMINATION && tau + tau_b > 0.0 && 1.0 - trans >= P.threshold) {
-            stopped = true;
-            break;
-        }
-        // Below this nothing behind can show in 8 bits or even float.
-        if (trans < 1e-30) {
-            trans = 0.0;
-            stopped = true;
-            break;
-        }
+    if (MODEL <= 3u) {
+        march_integrate(r);
+    } else if (MODEL <= 6u) {
+        march_project(r);
+    } else {
+        march_iso(r);
     }
-    color += color_b;
-    count_samples(taken);
-    if (!stopped && end < n) {
-        // Continues in the next pass.
-        ray_state[idx] = vec4<f32>(color, tau + tau_b);
-        if (P.first_pass == 1u) {
-            ray_done[idx] = 0u;
-        }
-        return;
-    }
-    if (!single_pass) {
-        ray_done[idx] = 1u;
-    }
-    if (!stopped && n < needed) {
-        atomicMax(&stats[0], needed);
-    }
-    out_rgba[idx] = vec4<f32>(color, 1.0 - trans);
 }

@@ -1,6 +1,7 @@
 //! Render configuration: pyvr 0.4.1's presets, validation rules and cost
 //! estimates, plus the opacity-correction form (an extension).
 
+use crate::model::{Model, Order};
 use std::fmt;
 
 /// How a transfer-function opacity is turned into the opacity of one step.
@@ -57,6 +58,22 @@ pub struct RenderConfig {
     /// The step length at which a transfer function's opacity is defined.
     pub reference_step_size: f64,
     pub opacity_correction: OpacityCorrection,
+    /// What the ray computes (see `model.rs` for each model's RGBA).
+    pub model: Model,
+    /// The isosurface model's threshold: the surface is where `v = iso_value`.
+    pub iso_value: f64,
+    /// Henyey–Greenstein anisotropy `g` in (-1, 1) for single scattering
+    /// (0: isotropic).
+    pub anisotropy: f64,
+    /// Step of the shadow rays of single scattering; 0 means `step_size`.
+    pub shadow_step_size: f64,
+    /// Start each ray's segment grid at a per-pixel random fraction of a step.
+    pub jitter: bool,
+    pub jitter_seed: u32,
+    /// Emission–absorption with a pre-integrated table over (front, back)
+    /// values per segment instead of one midpoint sample.
+    pub pre_integrated: bool,
+    pub order: Order,
 }
 
 /// The five quality presets, in order from fastest to slowest.
@@ -119,7 +136,20 @@ impl RenderConfig {
             opacity_threshold: threshold,
             reference_step_size: DEFAULT_REFERENCE_STEP,
             opacity_correction: OpacityCorrection::Exponential,
+            model: Model::EmissionAbsorption,
+            iso_value: 0.5,
+            anisotropy: 0.0,
+            shadow_step_size: 0.0,
+            jitter: false,
+            jitter_seed: 0,
+            pre_integrated: false,
+            order: Order::FrontToBack,
         }
+    }
+
+    /// The shadow rays' step: `shadow_step_size`, or `step_size` when 0.
+    pub fn shadow_step(&self) -> f64 {
+        if self.shadow_step_size > 0.0 { self.shadow_step_size } else { self.step_size }
     }
 
     /// Checks pyvr's rules in pyvr's order, then the ones pyvr lacked
@@ -159,6 +189,27 @@ impl RenderConfig {
             return Err(ConfigError(format!(
                 "reference_step_size must be a positive finite number, got {}",
                 py_float(self.reference_step_size)
+            )));
+        }
+        if !self.iso_value.is_finite() {
+            return Err(ConfigError(format!("iso_value must be finite, got {}", py_float(self.iso_value))));
+        }
+        if !(self.anisotropy > -1.0 && self.anisotropy < 1.0) {
+            return Err(ConfigError(format!(
+                "anisotropy must be in (-1, 1) (0 is isotropic), got {}",
+                py_float(self.anisotropy)
+            )));
+        }
+        if !self.shadow_step_size.is_finite() || self.shadow_step_size < 0.0 {
+            return Err(ConfigError(format!(
+                "shadow_step_size must be a finite number >= 0 (0: use step_size), got {}",
+                py_float(self.shadow_step_size)
+            )));
+        }
+        if self.pre_integrated && self.model != Model::EmissionAbsorption {
+            return Err(ConfigError(format!(
+                "pre_integrated applies to the 'emission_absorption' model only, not '{}'",
+                self.model.name()
             )));
         }
         Ok(warnings)

@@ -2,12 +2,17 @@
 //! and (with tiny steps) the converged image for accuracy measurements.
 //!
 //! Rule, shared with the shader: the ray's chord `[t0, t1]` through the box is
-//! cut into `ceil((t1 - t0) / step)` segments of length `step`, the last one
-//! shorter; each segment is sampled at its midpoint and contributes with its
-//! own length (Beer–Lambert opacity correction), front to back:
-//! `C += T * a * I * rgb`, `T *= 1 - a`.
+//! cut into segments of length `step`, the last one shorter (and, with
+//! jitter, the first one too: the grid starts `shift` steps early, `shift`
+//! in (-1, 0]); each segment is sampled at its midpoint and contributes with
+//! its own length (Beer–Lambert opacity correction), front to back:
+//! `C += T * a * I * rgb`, `T = exp(-Σ x)`. The other models of
+//! [`crate::model::Model`] reuse the same segments.
 
 use crate::config::{OpacityCorrection, RenderConfig};
+use crate::model::{jitter_shift, phase_4pi, Model};
+pub use crate::model::Order;
+use crate::preintegrate;
 use crate::scene::{Camera, Light, Shading};
 use crate::transfer::eval_lut;
 use crate::volume::VolumeView;
@@ -26,13 +31,28 @@ pub struct Frame<'a> {
     pub height: u32,
 }
 
-/// One ray's result: premultiplied colour and opacity, and how many steps the
-/// ray would have needed when `max_steps` cut it short (else 0).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+/// One ray's result: premultiplied colour and opacity, how many steps the
+/// ray would have needed when `max_steps` cut it short (else 0), and for
+/// the isosurface model the ray parameter of the hit (else infinity).
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RayResult {
     pub rgba: [f64; 4],
     pub truncated_needed: u64,
+    pub depth: f64,
 }
+
+impl Default for RayResult {
+    fn default() -> Self {
+        RayResult { rgba: [0.0; 4], truncated_needed: 0, depth: f64::INFINITY }
+    }
+}
+
+/// Shadow rays stop once their optical depth passes this: the light left
+/// (exp(-16) = 1.1e-7) is below what any output can show.
+pub const SHADOW_TAU_MAX: f64 = 16.0;
+/// Bisection steps that place an isosurface hit between two samples (to
+/// 1/256 of their distance, then a secant step).
+pub const ISO_BISECTIONS: u32 = 8;
 
 /// `1 - exp(-x)` without cancellation for small `x`.
 #[inline]
@@ -69,157 +89,381 @@ pub fn corrected_alpha(a: f64, len_over_ref: f64, form: OpacityCorrection) -> f6
     one_minus_exp_neg(sigma * len_over_ref)
 }
 
-/// The segments of one ray: where its chord starts, how many segments it
-/// has (`n`, at most `max_steps`) and how many crossing it would take.
-struct Chord {
+/// Segments a chord of `len` needs when the grid starts `shift` steps
+/// before its entry: `ceil(len / step - shift)`.
+pub fn segments_needed(len: f64, step: f64, shift: f64) -> u64 {
+    if len <= 0.0 {
+        return 0;
+    }
+    let n = (len / step - shift).ceil();
+    if n >= u64::MAX as f64 { u64::MAX } else { n as u64 }
+}
+
+/// One ray's chord and its segment grid.
+struct Ray {
+    origin: DVec3,
+    dir: DVec3,
     t0: f64,
     t1: f64,
+    shift: f64,
+    /// Segments marched (at most `max_steps`) and segments needed.
     n: u64,
     needed: u64,
 }
 
-fn chord(frame: &Frame, origin: DVec3, dir: DVec3) -> Option<Chord> {
-    let (t0, t1) = frame.volume.bounds.intersect(origin, dir)?;
-    let needed = frame.config.steps_for_length(t1 - t0);
-    Some(Chord { t0, t1, n: needed.min(frame.config.max_steps.max(0) as u64), needed })
+impl Ray {
+    fn new(frame: &Frame, origin: DVec3, dir: DVec3, shift: f64) -> Option<Ray> {
+        let (t0, t1) = frame.volume.bounds.intersect(origin, dir)?;
+        let needed = segments_needed(t1 - t0, frame.config.step_size, shift);
+        let n = needed.min(frame.config.max_steps.max(0) as u64);
+        Some(Ray { origin, dir, t0, t1, shift, n, needed })
+    }
+
+    /// Segment `i`: its start as an offset from `t0`, and its length.
+    fn span(&self, step: f64, i: u64) -> (f64, f64) {
+        let a = i as f64 * step + self.shift * step;
+        let len = self.t1 - self.t0;
+        if a < 0.0 {
+            (0.0, ((1.0 + self.shift) * step).min(len))
+        } else {
+            (a, step.min(len - a).max(0.0))
+        }
+    }
+
+    fn at(&self, offset: f64) -> DVec3 {
+        self.origin + self.dir * (self.t0 + offset)
+    }
+
+    fn truncated(&self) -> u64 {
+        if self.n < self.needed { self.needed } else { 0 }
+    }
 }
 
-/// Segment `i` of a chord: its optical depth `x` and its lit colour
-/// `I * rgb`, or `None` when it is empty (NaN sample, zero opacity, no length).
-fn segment(frame: &Frame, shading: Shading, origin: DVec3, dir: DVec3, ch: &Chord, i: u64) -> Option<(f64, [f64; 3])> {
-    let (vol, cfg) = (&frame.volume, &frame.config);
-    let s0 = ch.t0 + i as f64 * cfg.step_size;
-    let seg = cfg.step_size.min(ch.t1 - s0);
+fn value(frame: &Frame, p: DVec3) -> f64 {
+    frame.volume.sample(frame.volume.bounds.to_unit(p))
+}
+
+/// Light that reaches `p` from the light source through the volume:
+/// `exp(-∫ σ ds / ref)` along the shadow ray, midpoint rule with the
+/// shadow step, up to the box exit (or the point light, if nearer).
+pub fn light_transmittance(frame: &Frame, p: DVec3) -> f64 {
+    let light = &frame.light;
+    let Some(travel) = light.direction_at(p) else {
+        return 1.0;
+    };
+    let to_light = -travel;
+    let mut reach = f64::INFINITY;
+    if light.kind == crate::scene::LightKind::Point {
+        reach = (light.position - p).length();
+    }
+    let Some((_, exit)) = frame.volume.bounds.intersect(p, to_light) else {
+        return 1.0;
+    };
+    let len = exit.min(reach);
+    let cfg = &frame.config;
+    let h = cfg.shadow_step();
+    let n = segments_needed(len, h, 0.0);
+    let mut tau = 0.0;
+    for j in 0..n {
+        let s0 = j as f64 * h;
+        let seg = h.min(len - s0);
+        if seg <= 0.0 {
+            break;
+        }
+        let v = value(frame, p + to_light * (s0 + 0.5 * seg));
+        if v.is_nan() {
+            continue;
+        }
+        tau += extinction(eval_lut(frame.lut, v)[3], cfg.opacity_correction) * (seg / cfg.reference_step_size);
+        if tau > SHADOW_TAU_MAX {
+            break;
+        }
+    }
+    (-tau).exp()
+}
+
+/// What a model needs to light a sample at `p`.
+fn intensity(frame: &Frame, shading: Shading, p: DVec3, dir: DVec3) -> f64 {
+    let light = &frame.light;
+    match frame.config.model {
+        Model::SingleScattering => {
+            if light.diffuse == 0.0 {
+                return light.ambient;
+            }
+            match light.direction_at(p) {
+                Some(l) => {
+                    let phase = phase_4pi(frame.config.anisotropy, l.dot(-dir));
+                    light.ambient + light.diffuse * phase * light_transmittance(frame, p)
+                }
+                None => light.ambient,
+            }
+        }
+        _ => {
+            let q = frame.volume.bounds.to_unit(p);
+            let normal = match shading {
+                Shading::AmbientOnly => None,
+                Shading::Normals => frame.volume.normal(q),
+                Shading::Gradient => frame.volume.gradient_normal(q),
+            };
+            light.intensity(normal, p)
+        }
+    }
+}
+
+/// Segment `i` of an integrating model: its optical depth `x` and the
+/// premultiplied colour it adds before attenuation by what lies in front;
+/// `None` when it is empty (NaN sample, zero opacity, no length).
+fn segment(frame: &Frame, shading: Shading, ray: &Ray, i: u64) -> Option<(f64, [f64; 3])> {
+    let cfg = &frame.config;
+    let (lo, seg) = ray.span(cfg.step_size, i);
     if seg <= 0.0 {
         return None;
     }
-    let p = origin + dir * (s0 + 0.5 * seg);
-    let q = vol.bounds.to_unit(p);
-    let v = vol.sample(q);
-    if v.is_nan() {
-        return None;
-    }
-    let rgba = eval_lut(frame.lut, v);
-    let sigma = extinction(rgba[3], cfg.opacity_correction);
-    if sigma <= 0.0 {
-        return None;
-    }
-    let normal = match shading {
-        Shading::AmbientOnly => None,
-        Shading::Normals => vol.normal(q),
-        Shading::Gradient => vol.gradient_normal(q),
+    let p = ray.at(lo + 0.5 * seg);
+    let pre = cfg.pre_integrated && seg == cfg.step_size;
+    let (x, rgb) = if pre {
+        let (vf, vb) = (value(frame, ray.at(lo)), value(frame, ray.at(lo + seg)));
+        if vf.is_nan() || vb.is_nan() {
+            return None;
+        }
+        // Eight times the table's resolution: the exact ramp integral.
+        let k = preintegrate::substeps_for(frame.lut.len(), vf, vb) * 8;
+        let r = preintegrate::segment(frame.lut, vf, vb, seg / cfg.reference_step_size, cfg.opacity_correction, k);
+        (r[3], [r[0], r[1], r[2]])
+    } else {
+        let v = value(frame, p);
+        if v.is_nan() {
+            return None;
+        }
+        let rgba = eval_lut(frame.lut, v);
+        let x = extinction(rgba[3], cfg.opacity_correction) * (seg / cfg.reference_step_size);
+        let w = match cfg.model {
+            Model::Emission => x,
+            _ => one_minus_exp_neg(x),
+        };
+        (x, [w * rgba[0], w * rgba[1], w * rgba[2]])
     };
-    let light = frame.light.intensity(normal, p);
-    Some((sigma * (seg / cfg.reference_step_size), [light * rgba[0], light * rgba[1], light * rgba[2]]))
+    if !(x > 0.0) {
+        return None;
+    }
+    if cfg.model == Model::Absorption {
+        return Some((x, [0.0; 3]));
+    }
+    let light = intensity(frame, shading, p, ray.dir);
+    Some((x, rgb.map(|c| c * light)))
 }
 
-pub fn integrate_ray(frame: &Frame, origin: DVec3, dir: DVec3) -> RayResult {
-    let Some(ch) = chord(frame, origin, dir) else {
-        return RayResult::default();
-    };
+fn integrate(frame: &Frame, ray: &Ray) -> RayResult {
     let cfg = &frame.config;
     let shading = Shading::choose(&frame.light, frame.volume.normals.is_some());
+    let model = cfg.model;
     let mut c = [0.0f64; 3];
     let mut tau = 0.0f64;
     let mut t = 1.0f64;
     let mut stopped_early = false;
-    for i in 0..ch.n {
-        let Some((x, lit)) = segment(frame, shading, origin, dir, &ch, i) else {
-            continue;
-        };
-        let w = t * one_minus_exp_neg(x);
-        for k in 0..3 {
-            c[k] += w * lit[k];
+    if cfg.order == Order::BackToFront {
+        // C = c_i + exp(-x_i) C from the far end; no early stop is possible.
+        for i in (0..ray.n).rev() {
+            let Some((x, add)) = segment(frame, shading, ray, i) else {
+                continue;
+            };
+            let keep = if model == Model::Emission { 1.0 } else { (-x).exp() };
+            for k in 0..3 {
+                c[k] = add[k] + keep * c[k];
+            }
+            tau += x;
         }
-        // Transmittance from the summed optical depth, as the shader does.
-        tau += x;
         t = (-tau).exp();
-        if cfg.early_ray_termination && 1.0 - t >= cfg.opacity_threshold {
-            stopped_early = true;
-            break;
-        }
-        // The shader's rule: past this nothing behind can show.
-        if t < 1e-30 {
-            t = 0.0;
-            stopped_early = true;
-            break;
+    } else {
+        for i in 0..ray.n {
+            let Some((x, add)) = segment(frame, shading, ray, i) else {
+                continue;
+            };
+            for k in 0..3 {
+                c[k] += t * add[k];
+            }
+            if model == Model::Emission {
+                continue;
+            }
+            // Transmittance from the summed optical depth, as the shader does.
+            tau += x;
+            t = (-tau).exp();
+            if cfg.early_ray_termination && model.terminates_early() && 1.0 - t >= cfg.opacity_threshold {
+                stopped_early = true;
+                break;
+            }
+            // The shader's rule: past this nothing behind can show.
+            if t < 1e-30 {
+                t = 0.0;
+                stopped_early = true;
+                break;
+            }
         }
     }
-    let truncated_needed = if !stopped_early && ch.n < ch.needed { ch.needed } else { 0 };
-    RayResult { rgba: [c[0], c[1], c[2], 1.0 - t], truncated_needed }
+    let alpha = if model == Model::Emission { 0.0 } else { 1.0 - t };
+    let truncated_needed = if stopped_early { 0 } else { ray.truncated() };
+    RayResult { rgba: [c[0], c[1], c[2], alpha], truncated_needed, depth: f64::INFINITY }
 }
 
-/// Composites the same segments as [`integrate_ray`] from the far end to the
-/// near one: `C = a I c + (1 - a) C`, `A = a + (1 - a) A`. Equal to
-/// front-to-back when early termination does not stop the ray; a check on
-/// both, since the two orders share no accumulation code.
-pub fn integrate_ray_back_to_front(frame: &Frame, origin: DVec3, dir: DVec3) -> RayResult {
-    let Some(ch) = chord(frame, origin, dir) else {
+/// The TF's premultiplied RGBA of a projected value.
+fn projected(frame: &Frame, v: f64) -> [f64; 4] {
+    let c = eval_lut(frame.lut, v);
+    [c[0] * c[3], c[1] * c[3], c[2] * c[3], c[3]]
+}
+
+fn project(frame: &Frame, ray: &Ray) -> RayResult {
+    let cfg = &frame.config;
+    let (mut best, mut sum, mut len) = (f64::NAN, 0.0, 0.0);
+    for i in 0..ray.n {
+        let (lo, seg) = ray.span(cfg.step_size, i);
+        if seg <= 0.0 {
+            continue;
+        }
+        let v = value(frame, ray.at(lo + 0.5 * seg));
+        if v.is_nan() {
+            continue;
+        }
+        match cfg.model {
+            Model::Mip => best = if best >= v { best } else { v },
+            Model::MinIp => best = if best <= v { best } else { v },
+            _ => {
+                sum += v * seg;
+                len += seg;
+            }
+        }
+    }
+    if cfg.model == Model::Average && len > 0.0 {
+        best = sum / len;
+    }
+    let rgba = if best.is_nan() { [0.0; 4] } else { projected(frame, best) };
+    RayResult { rgba, truncated_needed: ray.truncated(), depth: f64::INFINITY }
+}
+
+/// Below the iso value: NaN counts as outside.
+fn below(v: f64, iso: f64) -> bool {
+    !(v >= iso)
+}
+
+fn isosurface(frame: &Frame, ray: &Ray) -> RayResult {
+    let cfg = &frame.config;
+    let iso = cfg.iso_value;
+    let miss = RayResult { truncated_needed: ray.truncated(), ..RayResult::default() };
+    // Sample points: the entry, every segment's midpoint, the exit.
+    let mut prev = 0.0;
+    let mut hit = None;
+    if !below(value(frame, ray.at(0.0)), iso) {
+        hit = Some(0.0);
+    }
+    let mut i = 0;
+    while hit.is_none() && i <= ray.n {
+        let at = if i < ray.n {
+            let (lo, seg) = ray.span(cfg.step_size, i);
+            lo + 0.5 * seg
+        } else if ray.n == ray.needed {
+            ray.t1 - ray.t0
+        } else {
+            break;
+        };
+        i += 1;
+        if !below(value(frame, ray.at(at)), iso) {
+            // Bisection to the crossing of the interpolated field.
+            let (mut lo, mut hi) = (prev, at);
+            for _ in 0..60 {
+                let mid = 0.5 * (lo + hi);
+                if below(value(frame, ray.at(mid)), iso) {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            hit = Some(0.5 * (lo + hi));
+        }
+        prev = at;
+    }
+    let Some(off) = hit else {
+        return miss;
+    };
+    let p = ray.at(off);
+    let shading = if frame.light.diffuse == 0.0 {
+        Shading::AmbientOnly
+    } else if frame.volume.normals.is_some() {
+        Shading::Normals
+    } else {
+        Shading::Gradient
+    };
+    let light = intensity(frame, shading, p, ray.dir);
+    let c = eval_lut(frame.lut, iso);
+    RayResult { rgba: [c[0] * light, c[1] * light, c[2] * light, 1.0], truncated_needed: 0, depth: ray.t0 + off }
+}
+
+fn trace(frame: &Frame, origin: DVec3, dir: DVec3, shift: f64) -> RayResult {
+    let Some(ray) = Ray::new(frame, origin, dir, shift) else {
         return RayResult::default();
     };
-    let shading = Shading::choose(&frame.light, frame.volume.normals.is_some());
-    let mut c = [0.0f64; 4];
-    for i in (0..ch.n).rev() {
-        let Some((x, lit)) = segment(frame, shading, origin, dir, &ch, i) else {
-            continue;
-        };
-        let a = one_minus_exp_neg(x);
-        for k in 0..3 {
-            c[k] = a * lit[k] + (1.0 - a) * c[k];
-        }
-        c[3] = a + (1.0 - a) * c[3];
+    match frame.config.model {
+        m if m.integrates() => integrate(frame, &ray),
+        m if m.projects() => project(frame, &ray),
+        _ => isosurface(frame, &ray),
     }
-    RayResult { rgba: c, truncated_needed: if ch.n < ch.needed { ch.needed } else { 0 } }
 }
 
-/// Compositing order of the f64 integrator.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Order {
-    FrontToBack,
-    BackToFront,
+/// One ray without jitter, in the config's model and order.
+pub fn integrate_ray(frame: &Frame, origin: DVec3, dir: DVec3) -> RayResult {
+    trace(frame, origin, dir, 0.0)
 }
 
-/// Premultiplied RGBA per pixel, row 0 at the bottom; and the largest step
-/// count a truncated ray needed (0 when none was cut short).
+/// The same ray composited from the far end: `C = c_i + exp(-x_i) C`.
+/// Equal to front-to-back when early termination does not stop the ray; a
+/// check on both, since the two orders share no accumulation code.
+pub fn integrate_ray_back_to_front(frame: &Frame, origin: DVec3, dir: DVec3) -> RayResult {
+    let mut f = *frame;
+    f.config.order = Order::BackToFront;
+    trace(&f, origin, dir, 0.0)
+}
+
+/// A whole frame: premultiplied RGBA per pixel (row 0 at the bottom), the
+/// ray parameter of each isosurface hit (infinity elsewhere), and the
+/// largest step count a truncated ray needed (0 when none was cut short).
+pub struct Image {
+    pub rgba: Vec<[f64; 4]>,
+    pub depth: Vec<f64>,
+    pub truncated_needed: u64,
+}
+
 pub fn render(frame: &Frame) -> Result<(Vec<[f64; 4]>, u64), crate::scene::SceneError> {
-    render_ordered(frame, Order::FrontToBack)
+    render_image(frame).map(|im| (im.rgba, im.truncated_needed))
 }
 
 pub fn render_ordered(frame: &Frame, order: Order) -> Result<(Vec<[f64; 4]>, u64), crate::scene::SceneError> {
-    let ray = match order {
-        Order::FrontToBack => integrate_ray,
-        Order::BackToFront => integrate_ray_back_to_front,
-    };
+    let mut f = *frame;
+    f.config.order = order;
+    render(&f)
+}
+
+pub fn render_image(frame: &Frame) -> Result<Image, crate::scene::SceneError> {
     let basis = frame.camera.basis(frame.width, frame.height)?;
     let (w, h) = (frame.width, frame.height);
-    let mut out = vec![[0.0f64; 4]; w as usize * h as usize];
+    let mut out = vec![RayResult::default(); w as usize * h as usize];
     let threads = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
     let rows_per = (h as usize).div_ceil(threads).max(1);
-    let mut worst = 0u64;
+    let cfg = frame.config;
     std::thread::scope(|s| {
-        let handles: Vec<_> = out
-            .chunks_mut(rows_per * w as usize)
-            .enumerate()
-            .map(|(chunk, pixels)| {
-                s.spawn(move || {
-                    let mut worst = 0u64;
-                    for (idx, px) in pixels.iter_mut().enumerate() {
-                        let row = (chunk * rows_per + idx / w as usize) as u32;
-                        let col = (idx % w as usize) as u32;
-                        let dir = basis.direction(col, row, w, h);
-                        let r = ray(frame, basis.origin, dir);
-                        *px = r.rgba;
-                        worst = worst.max(r.truncated_needed);
-                    }
-                    worst
-                })
-            })
-            .collect();
-        for hd in handles {
-            worst = worst.max(hd.join().unwrap_or(0));
+        for (chunk, pixels) in out.chunks_mut(rows_per * w as usize).enumerate() {
+            s.spawn(move || {
+                for (idx, px) in pixels.iter_mut().enumerate() {
+                    let row = (chunk * rows_per + idx / w as usize) as u32;
+                    let col = (idx % w as usize) as u32;
+                    let shift = if cfg.jitter { jitter_shift(col, row, cfg.jitter_seed) as f64 } else { 0.0 };
+                    *px = trace(frame, basis.origin, basis.direction(col, row, w, h), shift);
+                }
+            });
         }
     });
-    Ok((out, worst))
+    Ok(Image {
+        rgba: out.iter().map(|r| r.rgba).collect(),
+        depth: out.iter().map(|r| r.depth).collect(),
+        truncated_needed: out.iter().map(|r| r.truncated_needed).max().unwrap_or(0),
+    })
 }
 
 #[cfg(test)]

@@ -7,7 +7,9 @@
 pub mod config;
 pub mod gpu;
 pub mod integrate;
+pub mod model;
 pub mod occupancy;
+pub mod preintegrate;
 pub mod scene;
 pub mod transfer;
 pub mod volume;

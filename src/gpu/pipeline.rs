@@ -4,7 +4,8 @@
 //! and stay cached for the life of the process.
 
 use super::context::{GpuContext, GpuError};
-use crate::config::OpacityCorrection;
+use crate::config::{OpacityCorrection, RenderConfig};
+use crate::model::{Model, Order};
 use crate::scene::{LightKind, Shading};
 use std::collections::HashMap;
 use std::sync::Mutex;
@@ -22,29 +23,43 @@ pub struct Variant {
     pub hw_filter: bool,
     /// Leap over occupancy cells the transfer function leaves empty.
     pub skip_empty: bool,
+    pub model: Model,
+    pub back_to_front: bool,
+    pub jitter: bool,
+    pub pre_integrated: bool,
 }
 
 impl Variant {
-    pub fn new(
-        shading: Shading,
-        light: LightKind,
-        early: bool,
-        correction: OpacityCorrection,
-        hw_filter: bool,
-        skip_empty: bool,
-    ) -> Self {
+    /// The variant a frame needs: only what its model, light and config use.
+    /// `skip_empty` says the occupancy grid has empty cells worth skipping.
+    pub fn new(shading: Shading, light: LightKind, cfg: &RenderConfig, hw_filter: bool, skip_empty: bool) -> Self {
+        let model = cfg.model;
+        let shading = match model {
+            // Lit or not; scattering reads no normals (see the shader).
+            Model::SingleScattering if shading != Shading::AmbientOnly => Shading::Normals,
+            m if m.uses_light() => shading,
+            _ => Shading::AmbientOnly,
+        };
+        let back_to_front = cfg.order == Order::BackToFront && model.integrates() && model != Model::Absorption
+            && model != Model::Emission;
         Variant {
             hw_filter,
-            skip_empty,
+            // Pre-integrated segments are not split at cell borders.
+            skip_empty: skip_empty && model.skips_transparent() && !cfg.pre_integrated,
             shading,
             // The light's kind only matters when a diffuse term is computed.
             point_light: shading != Shading::AmbientOnly && light == LightKind::Point,
-            early_termination: early,
-            correction,
+            // Back to front cannot stop early; it is honoured by every model.
+            early_termination: cfg.early_ray_termination && model.terminates_early() && cfg.order == Order::FrontToBack,
+            correction: cfg.opacity_correction,
+            model,
+            back_to_front,
+            jitter: cfg.jitter,
+            pre_integrated: cfg.pre_integrated && model == Model::EmissionAbsorption,
         }
     }
 
-    fn constants(&self) -> [(&'static str, f64); 6] {
+    fn constants(&self) -> [(&'static str, f64); 10] {
         let shading = match self.shading {
             Shading::AmbientOnly => 0.0,
             Shading::Normals => 1.0,
@@ -57,6 +72,10 @@ impl Variant {
             ("POWER_CORRECTION", (self.correction == OpacityCorrection::Power) as u32 as f64),
             ("HW_FILTER", self.hw_filter as u32 as f64),
             ("SKIP_EMPTY", self.skip_empty as u32 as f64),
+            ("MODEL", self.model.code() as f64),
+            ("BACK_TO_FRONT", self.back_to_front as u32 as f64),
+            ("JITTER", self.jitter as u32 as f64),
+            ("PRE_INTEGRATED", self.pre_integrated as u32 as f64),
         ]
     }
 }
@@ -115,6 +134,20 @@ fn texture3d(binding: u32, filterable: bool) -> wgpu::BindGroupLayoutEntry {
     }
 }
 
+/// A filterable 2-D float table (the LUT, the pre-integration table).
+fn texture2d(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable: true },
+            view_dimension: wgpu::TextureViewDimension::D2,
+            multisampled: false,
+        },
+        count: None,
+    }
+}
+
 impl Pipelines {
     pub fn new(ctx: &GpuContext) -> Result<Pipelines, GpuError> {
         let device = &ctx.device;
@@ -139,16 +172,7 @@ impl Pipelines {
                         },
                         texture3d(1, filterable),
                         texture3d(2, true),
-                        wgpu::BindGroupLayoutEntry {
-                            binding: 3,
-                            visibility: wgpu::ShaderStages::COMPUTE,
-                            ty: wgpu::BindingType::Texture {
-                                sample_type: wgpu::TextureSampleType::Float { filterable: true },
-                                view_dimension: wgpu::TextureViewDimension::D2,
-                                multisampled: false,
-                            },
-                            count: None,
-                        },
+                        texture2d(3),
                         storage(4, false),
                         storage(5, false),
                         sampler(6, filterable),
@@ -165,6 +189,7 @@ impl Pipelines {
                             },
                             count: None,
                         },
+                        texture2d(11),
                     ],
                 });
                 let pipeline = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {

@@ -5,7 +5,9 @@
 use super::context::{GpuContext, GpuError};
 use super::half::f32_to_f16;
 use super::pipeline::{Pipelines, Variant, WORKGROUP};
-use crate::config::RenderConfig;
+use crate::config::{OpacityCorrection, RenderConfig};
+use crate::model::Model;
+use crate::preintegrate;
 use crate::occupancy::{pyramid, MinMaxGrid};
 use crate::scene::{Bounds, Camera, Light, LightKind, Shading};
 use crate::volume::{sanitize, VolumeView, Voxels};
@@ -40,12 +42,19 @@ struct Params {
     first_pass: u32,
     last_pass: u32,
     occ_levels: u32,
-    _pad: u32,
+    jitter_seed: u32,
+    /// (iso_value, anisotropy g, shadow step, pre-integration table side)
+    model_params: [f32; 4],
 }
 
 /// Steps one dispatch marches at most. Below lavapipe's 65535-iteration loop
 /// cap, and short enough that a pass stays far from GPU watchdog timeouts.
 pub const PASS_STEPS: u32 = 16384;
+/// Loop iterations one invocation may run in one dispatch (lavapipe stops
+/// loops at 65535 iterations, nested loops included).
+const PASS_ITERATIONS: u64 = 60_000;
+/// Longest shadow ray, in steps, single scattering accepts.
+pub const MAX_SHADOW_STEPS: u64 = 30_000;
 
 fn v4(v: DVec3) -> [f32; 4] {
     [v.x as f32, v.y as f32, v.z as f32, 0.0]
@@ -85,7 +94,14 @@ impl RayState {
                 mapped_at_creation: false,
             })
         };
-        RayState { state: buf("ray state", pixels * 16), done: buf("ray done", pixels * 4), pixels }
+        let state = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("ray state"),
+            size: pixels * 16,
+            // Copied out for the isosurface model's depth image.
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        RayState { state, done: buf("ray done", pixels * 4), pixels }
     }
 }
 
@@ -141,11 +157,27 @@ pub struct GpuRenderer {
     /// (the path used without FLOAT32_FILTERABLE); for tests and comparisons.
     pub shader_filtering: bool,
     lut: Option<(wgpu::TextureView, u32)>,
+    /// Bumped by every set_lut, so derived tables know when to rebuild.
+    lut_version: u64,
+    /// The pre-integration table and what it was built for.
+    preint: Option<(wgpu::TextureView, PreintKey)>,
+    /// Bound when no frame has needed a pre-integration table.
+    dummy_preint: wgpu::TextureView,
+    /// The last frame was an isosurface: its depth is in the ray state.
+    depth_ready: bool,
     output: Option<Output>,
     ray_state: RayState,
     bind_group: Option<wgpu::BindGroup>,
     pending_upload: u64,
     pub counters: Counters,
+}
+
+/// What a pre-integration table depends on.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct PreintKey {
+    lut_version: u64,
+    len_over_ref: f64,
+    form: OpacityCorrection,
 }
 
 static PIPELINES: OnceLock<Result<Arc<Pipelines>, GpuError>> = OnceLock::new();
@@ -206,6 +238,10 @@ impl GpuRenderer {
         let volume_samplers = [sampler(wgpu::FilterMode::Nearest), sampler(wgpu::FilterMode::Linear)];
         let ray_state = ctx.scoped("allocating ray state", || RayState::new(device, 1))?;
         let linear_sampler = sampler(wgpu::FilterMode::Linear);
+        let d2 = wgpu::TextureDimension::D2;
+        let one = wgpu::Extent3d { width: 1, height: 1, depth_or_array_layers: 1 };
+        let dummy_preint =
+            ctx.texture_with_data("allocating renderer buffers", "no table", one, d2, wgpu::TextureFormat::Rgba16Float, 1, &[0u8; 8])?;
         let mut r = GpuRenderer {
             ctx,
             pipelines,
@@ -226,6 +262,10 @@ impl GpuRenderer {
             bound_hw_filter: false,
             shader_filtering: false,
             lut: None,
+            lut_version: 0,
+            preint: None,
+            dummy_preint,
+            depth_ready: false,
             output: None,
             ray_state,
             bind_group: None,
@@ -401,6 +441,7 @@ impl GpuRenderer {
         let view = self.ctx.texture_with_data("uploading the transfer function", "lut", size, d2, format, 1, &bytes)?;
         self.lut = Some((view, lut.len() as u32));
         self.lut_rows = lut.to_vec();
+        self.lut_version += 1;
         self.bind_group = None;
         if self.volume.is_some() {
             self.update_occupancy()?;
@@ -468,7 +509,13 @@ impl GpuRenderer {
             first_pass: 1,
             last_pass: 1,
             occ_levels: self.occ_levels,
-            _pad: 0,
+            jitter_seed: cfg.jitter_seed,
+            model_params: [
+                cfg.iso_value as f32,
+                cfg.anisotropy as f32,
+                cfg.shadow_step() as f32,
+                preintegrate::table_side(self.lut_rows.len()) as f32,
+            ],
         })
     }
 
@@ -490,8 +537,9 @@ impl GpuRenderer {
             return Err(GpuError("no transfer function set: call set_transfer_functions() first".into()));
         }
         cfg.validate().map_err(|e| GpuError(e.0))?;
-        let params = self.params(vol, camera, light, cfg)?;
-        if self.skip_empty && self.empty_fraction == 1.0 {
+        let mut params = self.params(vol, camera, light, cfg)?;
+        self.depth_ready = false;
+        if self.skip_empty && self.empty_fraction == 1.0 && cfg.model.skips_transparent() {
             // Every sample of every ray would have opacity 0.
             out.fill(0.0);
             self.counters.frames += 1;
@@ -500,12 +548,33 @@ impl GpuRenderer {
             return Ok(FrameStats { truncated_needed: 0, uploaded_bytes: uploaded, passes: 0, samples: 0 });
         }
         let shading = Shading::choose(light, vol.normals.is_some());
+        let hw_filter = vol.filterable && !self.shader_filtering;
+        let variant = Variant::new(shading, light.kind, cfg, hw_filter, self.skip_empty && self.empty_fraction > 0.0);
         // An upper bound on any ray's step count decides how many passes.
         let longest = vol.bounds.max_chord_from(camera.position);
         let max_n = cfg.steps_for_length(longest).saturating_add(2).min(params.max_steps as u64);
-        let passes = max_n.div_ceil(PASS_STEPS as u64).max(1) as u32;
+        let mut pass_steps = PASS_STEPS as u64;
+        if cfg.model == Model::SingleScattering && variant.shading != Shading::AmbientOnly {
+            // Every step may march a shadow ray: fewer steps per dispatch.
+            let shadow = (vol.bounds.extent().length() / cfg.shadow_step()).ceil() + 1.0;
+            if !(shadow <= MAX_SHADOW_STEPS as f64) {
+                return Err(GpuError(format!(
+                    "shadow rays of up to {shadow} steps exceed the limit of {MAX_SHADOW_STEPS}: \
+                     shadow_step_size must be at least {:.3e} for these bounds",
+                    vol.bounds.extent().length() / MAX_SHADOW_STEPS as f64
+                )));
+            }
+            pass_steps = (PASS_ITERATIONS / (shadow as u64 + 1)).clamp(1, PASS_STEPS as u64);
+        }
+        let passes = max_n.div_ceil(pass_steps).max(1);
+        if passes > u32::MAX as u64 {
+            return Err(GpuError(format!("rays of {max_n} steps need too many passes; use a larger step_size")));
+        }
+        let passes = passes as u32;
+        params.pass_steps = pass_steps as u32;
         let pixels = self.width as u64 * self.height as u64;
-        if passes > 1 && self.ray_state.pixels < pixels {
+        let per_pixel_state = passes > 1 || cfg.model == Model::Isosurface;
+        if per_pixel_state && self.ray_state.pixels < pixels {
             let limit = self.ctx.max_storage_bytes();
             if pixels * 16 > limit {
                 return Err(GpuError(format!(
@@ -518,9 +587,10 @@ impl GpuRenderer {
             self.ray_state = self.ctx.scoped("allocating ray state", || RayState::new(device, pixels))?;
             self.bind_group = None;
         }
-        let hw_filter = vol.filterable && !self.shader_filtering;
-        let variant =
-            Variant::new(shading, light.kind, cfg.early_ray_termination, cfg.opacity_correction, hw_filter, self.skip_empty && self.empty_fraction > 0.0);
+        if variant.pre_integrated {
+            self.ensure_preint(cfg)?;
+        }
+        let vol = self.volume.as_ref().expect("checked above");
         let pipeline = self.pipelines.get(&self.ctx, variant)?;
         let ctx = self.ctx.clone();
         if self.bound_hw_filter != hw_filter {
@@ -530,6 +600,7 @@ impl GpuRenderer {
             let output = self.output.as_ref().expect("resize() always leaves an output");
             let (lut, _) = self.lut.as_ref().expect("checked above");
             let normals = vol.normals.as_ref().unwrap_or(&self.dummy_normals);
+            let preint = self.preint.as_ref().map_or(&self.dummy_preint, |(v, _)| v);
             let occupancy = self
                 .occupancy
                 .as_ref()
@@ -556,6 +627,7 @@ impl GpuRenderer {
                             binding: 10,
                             resource: wgpu::BindingResource::TextureView(occupancy),
                         },
+                        wgpu::BindGroupEntry { binding: 11, resource: wgpu::BindingResource::TextureView(preint) },
                     ],
                 })
             })?;
@@ -572,7 +644,7 @@ impl GpuRenderer {
         let bytes = n as u64 * 4;
         for pass in 0..passes {
             let mut p = params;
-            p.pass_start = pass * PASS_STEPS;
+            p.pass_start = pass * params.pass_steps;
             p.first_pass = (pass == 0) as u32;
             p.last_pass = (pass + 1 == passes) as u32;
             // Writes before a submit are ordered with it: each pass sees its own.
@@ -628,7 +700,75 @@ impl GpuRenderer {
         self.stats_readback.unmap();
         self.counters.frames += 1;
         self.counters.uploaded_bytes += uploaded;
+        self.depth_ready = cfg.model == Model::Isosurface;
         Ok(FrameStats { truncated_needed, uploaded_bytes: uploaded, passes, samples })
+    }
+
+    /// Builds the pre-integration table for this config's step unless the
+    /// current one was built for the same table, step and correction form.
+    fn ensure_preint(&mut self, cfg: &RenderConfig) -> Result<(), GpuError> {
+        let key = PreintKey {
+            lut_version: self.lut_version,
+            len_over_ref: cfg.step_size / cfg.reference_step_size,
+            form: cfg.opacity_correction,
+        };
+        if self.preint.as_ref().is_some_and(|(_, k)| *k == key) {
+            return Ok(());
+        }
+        let table = preintegrate::table(&self.lut_rows, key.len_over_ref, key.form);
+        let side = preintegrate::table_side(self.lut_rows.len()) as u32;
+        let f32_ok = self.ctx.features.contains(wgpu::Features::FLOAT32_FILTERABLE);
+        let (format, bytes): (wgpu::TextureFormat, Vec<u8>) = if f32_ok {
+            (wgpu::TextureFormat::Rgba32Float, bytemuck::cast_slice(&table).to_vec())
+        } else {
+            // f16 tops out at 65504: deeper segments are opaque anyway.
+            let h: Vec<u16> = table.iter().flatten().map(|&v| f32_to_f16(v.min(6.0e4))).collect();
+            (wgpu::TextureFormat::Rgba16Float, bytemuck::cast_slice(&h).to_vec())
+        };
+        let size = wgpu::Extent3d { width: side, height: side, depth_or_array_layers: 1 };
+        let d2 = wgpu::TextureDimension::D2;
+        let view = self.ctx.texture_with_data("uploading the pre-integration table", "preint", size, d2, format, 1, &bytes)?;
+        self.pending_upload += bytes.len() as u64;
+        self.preint = Some((view, key));
+        self.bind_group = None;
+        Ok(())
+    }
+
+    /// Ray parameter (distance from the camera along each unit-length ray)
+    /// of the last frame's isosurface hits, row 0 at the bottom; infinity
+    /// where a ray found no surface. `None` unless the last frame was an
+    /// isosurface.
+    pub fn depth(&mut self) -> Result<Option<Vec<f32>>, GpuError> {
+        if !self.depth_ready {
+            return Ok(None);
+        }
+        let pixels = self.width as u64 * self.height as u64;
+        let ctx = self.ctx.clone();
+        let staging = ctx.scoped("reading the depth image", || {
+            ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("depth readback"),
+                size: pixels * 16,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        })?;
+        let mut enc = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("depth") });
+        enc.copy_buffer_to_buffer(&self.ray_state.state, 0, &staging, 0, pixels * 16);
+        ctx.queue.submit([enc.finish()]);
+        let slice = staging.slice(..);
+        let (tx, rx) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+        ctx.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| GpuError(format!("waiting for the GPU failed: {e}")))?;
+        rx.recv()
+            .map_err(|_| GpuError("the GPU dropped a readback".into()))?
+            .map_err(|e| GpuError(format!("reading the depth back failed: {e}")))?;
+        let data = slice.get_mapped_range().map_err(|e| GpuError(format!("reading the depth back failed: {e}")))?;
+        let v: &[[f32; 4]] = bytemuck::cast_slice(&data);
+        Ok(Some(v.iter().map(|s| s[0]).collect()))
     }
 
     pub fn render(&mut self, camera: &Camera, light: &Light, cfg: &RenderConfig) -> Result<(Vec<f32>, FrameStats), GpuError> {
