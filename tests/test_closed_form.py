@@ -81,7 +81,7 @@ def test_f64_integrator_matches_closed_form(preset):
     lut[:, :3] = COLOR
     lut[:, 3] = A_TF
     p, up = cam.get_camera_vectors()
-    img, needed = _core.integrate_reference(
+    img, needed, _ = _core.integrate_reference(
         vol.data, None, (-0.5,) * 3, (0.5,) * 3, lut, (tuple(p), (0.0, 0.0, 0.0), tuple(up), cam.fov),
         ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 1.0, 0.0, "directional"), cfg, W, H,
     )

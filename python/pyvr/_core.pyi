@@ -20,6 +20,14 @@ class RenderConfig:
     opacity_threshold: float
     reference_step_size: float
     opacity_correction: str
+    model: str
+    iso_value: float
+    anisotropy: float
+    shadow_step_size: float
+    jitter: bool
+    jitter_seed: int
+    pre_integrated: bool
+    order: str
     def __init__(
         self,
         step_size: float = 0.01,
@@ -28,7 +36,17 @@ class RenderConfig:
         opacity_threshold: float = 0.95,
         reference_step_size: float = 0.01,
         opacity_correction: str = "exponential",
+        *,
+        model: str = "emission_absorption",
+        iso_value: float = 0.5,
+        anisotropy: float = 0.0,
+        shadow_step_size: float = 0.0,
+        jitter: bool = False,
+        jitter_seed: int = 0,
+        pre_integrated: bool = False,
+        order: str = "front_to_back",
     ) -> None: ...
+    def replace(self, **changes: Any) -> "RenderConfig": ...
     def validate(self) -> None: ...
     @classmethod
     def preview(cls) -> "RenderConfig": ...
@@ -67,6 +85,7 @@ class Renderer:
     def counters(self) -> Dict[str, int]: ...
     skip_empty: bool
     def empty_fraction(self) -> float: ...
+    def depth(self) -> Optional[npt.NDArray[np.float32]]: ...
 
 def quantize(rgba: npt.NDArray[np.float32], straight: bool = True) -> npt.NDArray[np.uint8]: ...
 def integrate_reference(
@@ -80,8 +99,8 @@ def integrate_reference(
     config: RenderConfig,
     width: int,
     height: int,
-    order: str = "front_to_back",
-) -> Tuple[npt.NDArray[np.float64], int]: ...
+    order: Optional[str] = None,
+) -> Tuple[npt.NDArray[np.float64], int, npt.NDArray[np.float64]]: ...
 def lut_from_points(
     scalars: npt.NDArray[np.float64], values: npt.NDArray[np.float64], size: int
 ) -> npt.NDArray[np.float32]: ...

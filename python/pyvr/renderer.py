@@ -27,6 +27,14 @@ def _vec(v):
     return (float(a[0]), float(a[1]), float(a[2]))
 
 
+def _straight(img: np.ndarray) -> np.ndarray:
+    """Colour divided by alpha, clipped to [0, 1]; where alpha is 0 (nothing,
+    or the emission model's additive glow) the colour is kept as it is."""
+    a = img[..., 3:4]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.clip(np.where(a > 0, img[..., :3] / np.where(a > 0, a, 1), img[..., :3]), 0.0, 1.0)
+
+
 def prepare_voxels(data: np.ndarray) -> np.ndarray:
     """The array the engine stores: uint8/uint16 kept (1 or 2 bytes per
     voxel, read as fractions of their range), bool as uint8 0/255, anything
@@ -84,6 +92,7 @@ class VolumeRenderer:
         self._camera_args = None
         self._warned = set()
         self.last_frame_stats: dict = {}
+        self.last_float64_depth: Optional[np.ndarray] = None
         self.set_config(config)
         self.set_light(light)
         self._has_tf = False
@@ -223,23 +232,21 @@ class VolumeRenderer:
         else:
             out = img
             if not premultiplied:
-                a = out[..., 3:4]
-                with np.errstate(divide="ignore", invalid="ignore"):
-                    rgb = np.where(a > 0, out[..., :3] / a, 0.0)
-                out[..., :3] = np.clip(rgb, 0.0, 1.0)
+                out[..., :3] = _straight(out)
         if origin == "upper":
             out = np.ascontiguousarray(out[::-1])
         return out
 
     def render_float64(self, *, config: Optional[RenderConfig] = None, premultiplied: bool = False,
-                       origin: str = "lower", order: str = "front_to_back") -> np.ndarray:
+                       origin: str = "lower", order: Optional[str] = None) -> np.ndarray:
         """The same frame from the float64 CPU integrator (the engine's oracle).
 
         Slow (CPU, one thread per core); meant for checking accuracy, e.g.
         against a converged image: ``render_float64(config=RenderConfig(
         step_size=1e-4, max_steps=100000, early_ray_termination=False))``.
-        ``config`` defaults to the renderer's; ``order`` is "front_to_back" or
-        "back_to_front" (equal without early termination).
+        ``config`` defaults to the renderer's; ``order`` ("front_to_back" or
+        "back_to_front", equal without early termination) overrides its order.
+        Isosurface hit distances are left in ``last_float64_depth``.
         """
         if self.volume is None:
             raise RuntimeError("no volume loaded: call load_volume() before render_float64()")
@@ -251,15 +258,25 @@ class VolumeRenderer:
         if not self._has_tf:
             self.set_transfer_functions(ColorTransferFunction(), OpacityTransferFunction())
         camera = self._camera_args or self._default_camera_args()
-        img, _ = _core.integrate_reference(
+        img, _, depth = _core.integrate_reference(
             prepare_voxels(self.volume.data), prepare_normals(self.volume.normals), *self._bounds, self._lut,
             camera, self._light_args, cfg, self.width, self.height, order,
         )
+        self.last_float64_depth = depth
         if not premultiplied:
-            a = img[..., 3:4]
-            with np.errstate(divide="ignore", invalid="ignore"):
-                img[..., :3] = np.clip(np.where(a > 0, img[..., :3] / a, 0.0), 0.0, 1.0)
+            img[..., :3] = _straight(img)
         return np.ascontiguousarray(img[::-1]) if origin == "upper" else img
+
+    def depth(self, *, origin: str = "lower") -> Optional[np.ndarray]:
+        """Distance from the camera to the isosurface along each pixel's ray
+        in the last frame (float32 (H, W), inf where the ray hit no surface),
+        or None unless that frame used ``model="isosurface"``."""
+        if origin not in ("lower", "upper"):
+            raise ValueError(f"origin must be 'lower' or 'upper', got {origin!r}")
+        d = self._engine.depth()
+        if d is None:
+            return None
+        return np.ascontiguousarray(d[::-1]) if origin == "upper" else d
 
     def _default_camera_args(self):
         position, up = (cam := Camera.front_view()).get_camera_vectors()

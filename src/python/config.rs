@@ -2,10 +2,29 @@
 //! defaults, presets, messages and repr.
 
 use crate::config::{OpacityCorrection, Preset, RenderConfig};
+use crate::model::{Model, Order};
 use pyo3::exceptions::{PyUserWarning, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyType;
 use std::ffi::CString;
+
+/// Field names `replace()` accepts.
+const FIELDS: [&str; 14] = [
+    "step_size",
+    "max_steps",
+    "early_ray_termination",
+    "opacity_threshold",
+    "reference_step_size",
+    "opacity_correction",
+    "model",
+    "iso_value",
+    "anisotropy",
+    "shadow_step_size",
+    "jitter",
+    "jitter_seed",
+    "pre_integrated",
+    "order",
+];
 
 #[pyclass(name = "RenderConfig", module = "pyvr.config", subclass)]
 #[derive(Clone)]
@@ -27,6 +46,10 @@ pub fn checked(py: Python<'_>, c: &RenderConfig) -> PyResult<()> {
     warn_all(py, &warnings)
 }
 
+fn value_err(e: crate::config::ConfigError) -> PyErr {
+    PyValueError::new_err(e.0)
+}
+
 fn preset(cls: &Bound<'_, PyType>, p: Preset) -> PyResult<Py<PyAny>> {
     let c = RenderConfig::preset(p);
     Ok(cls
@@ -37,7 +60,8 @@ fn preset(cls: &Bound<'_, PyType>, p: Preset) -> PyResult<Py<PyAny>> {
 #[pymethods]
 impl PyRenderConfig {
     #[new]
-    #[pyo3(signature = (step_size=0.01, max_steps=500, early_ray_termination=true, opacity_threshold=0.95, reference_step_size=0.01, opacity_correction="exponential"))]
+    #[pyo3(signature = (step_size=0.01, max_steps=500, early_ray_termination=true, opacity_threshold=0.95, reference_step_size=0.01, opacity_correction="exponential", *, model="emission_absorption", iso_value=0.5, anisotropy=0.0, shadow_step_size=0.0, jitter=false, jitter_seed=0, pre_integrated=false, order="front_to_back"))]
+    #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
         step_size: f64,
@@ -46,6 +70,14 @@ impl PyRenderConfig {
         opacity_threshold: f64,
         reference_step_size: f64,
         opacity_correction: &str,
+        model: &str,
+        iso_value: f64,
+        anisotropy: f64,
+        shadow_step_size: f64,
+        jitter: bool,
+        jitter_seed: u32,
+        pre_integrated: bool,
+        order: &str,
     ) -> PyResult<Self> {
         let inner = RenderConfig {
             step_size,
@@ -53,8 +85,15 @@ impl PyRenderConfig {
             early_ray_termination,
             opacity_threshold,
             reference_step_size,
-            opacity_correction: OpacityCorrection::parse(opacity_correction)
-                .map_err(|e| PyValueError::new_err(e.0))?,
+            opacity_correction: OpacityCorrection::parse(opacity_correction).map_err(value_err)?,
+            model: Model::parse(model).map_err(value_err)?,
+            iso_value,
+            anisotropy,
+            shadow_step_size,
+            jitter,
+            jitter_seed,
+            pre_integrated,
+            order: Order::parse(order).map_err(value_err)?,
         };
         checked(py, &inner)?;
         Ok(PyRenderConfig { inner })
@@ -112,6 +151,104 @@ impl PyRenderConfig {
         Ok(())
     }
 
+    /// "emission_absorption" (default), "absorption", "emission",
+    /// "single_scattering", "mip", "minip", "average" or "isosurface".
+    #[getter]
+    fn model(&self) -> &'static str {
+        self.inner.model.name()
+    }
+    #[setter]
+    fn set_model(&mut self, v: &str) -> PyResult<()> {
+        self.inner.model = Model::parse(v).map_err(value_err)?;
+        Ok(())
+    }
+    /// The isosurface model's threshold (data units after uint scaling).
+    #[getter]
+    fn iso_value(&self) -> f64 {
+        self.inner.iso_value
+    }
+    #[setter]
+    fn set_iso_value(&mut self, v: f64) {
+        self.inner.iso_value = v;
+    }
+    /// Henyey–Greenstein g in (-1, 1) for single scattering; 0 is isotropic.
+    #[getter]
+    fn anisotropy(&self) -> f64 {
+        self.inner.anisotropy
+    }
+    #[setter]
+    fn set_anisotropy(&mut self, v: f64) {
+        self.inner.anisotropy = v;
+    }
+    /// Step of single scattering's shadow rays; 0 means step_size.
+    #[getter]
+    fn shadow_step_size(&self) -> f64 {
+        self.inner.shadow_step_size
+    }
+    #[setter]
+    fn set_shadow_step_size(&mut self, v: f64) {
+        self.inner.shadow_step_size = v;
+    }
+    /// Start each pixel's sample grid at a random fraction of a step.
+    #[getter]
+    fn jitter(&self) -> bool {
+        self.inner.jitter
+    }
+    #[setter]
+    fn set_jitter(&mut self, v: bool) {
+        self.inner.jitter = v;
+    }
+    #[getter]
+    fn jitter_seed(&self) -> u32 {
+        self.inner.jitter_seed
+    }
+    #[setter]
+    fn set_jitter_seed(&mut self, v: u32) {
+        self.inner.jitter_seed = v;
+    }
+    /// Integrate each segment from a (front, back) table (emission_absorption only).
+    #[getter]
+    fn pre_integrated(&self) -> bool {
+        self.inner.pre_integrated
+    }
+    #[setter]
+    fn set_pre_integrated(&mut self, v: bool) {
+        self.inner.pre_integrated = v;
+    }
+    /// "front_to_back" (default) or "back_to_front" (equal; ignores early termination).
+    #[getter]
+    fn order(&self) -> &'static str {
+        self.inner.order.name()
+    }
+    #[setter]
+    fn set_order(&mut self, v: &str) -> PyResult<()> {
+        self.inner.order = Order::parse(v).map_err(value_err)?;
+        Ok(())
+    }
+
+    /// A copy with the given fields replaced, validated:
+    /// ``cfg.replace(model="mip", step_size=0.005)``.
+    #[pyo3(signature = (**changes))]
+    fn replace(slf: &Bound<'_, Self>, changes: Option<&Bound<'_, pyo3::types::PyDict>>) -> PyResult<PyRenderConfig> {
+        let py = slf.py();
+        let copy = Bound::new(py, slf.borrow().clone())?;
+        if let Some(ch) = changes {
+            for (k, v) in ch.iter() {
+                let name: String = k.extract()?;
+                if !FIELDS.contains(&name.as_str()) {
+                    return Err(pyo3::exceptions::PyTypeError::new_err(format!(
+                        "RenderConfig has no field '{name}'; fields are {}",
+                        FIELDS.join(", ")
+                    )));
+                }
+                copy.setattr(name.as_str(), v)?;
+            }
+        }
+        let out = copy.borrow().clone();
+        checked(py, &out.inner)?;
+        Ok(out)
+    }
+
     /// Raises ValueError for invalid values, warns for very large ones.
     fn validate(&self, py: Python<'_>) -> PyResult<()> {
         checked(py, &self.inner)
@@ -161,12 +298,34 @@ impl PyRenderConfig {
     fn __deepcopy__(&self, _memo: &Bound<'_, PyAny>) -> PyRenderConfig {
         self.clone()
     }
-    fn __reduce__(slf: &Bound<'_, Self>) -> PyResult<(Py<PyAny>, (f64, i64, bool, f64, f64, &'static str))> {
+    /// Pickles as the class, pyvr's positional fields, then the rest as state.
+    #[allow(clippy::type_complexity)]
+    fn __reduce__<'py>(
+        slf: &Bound<'py, Self>,
+    ) -> PyResult<(Py<PyAny>, (f64, i64, bool, f64, f64, &'static str), Bound<'py, pyo3::types::PyDict>)> {
+        let py = slf.py();
         let c = slf.borrow().inner;
+        let state = pyo3::types::PyDict::new(py);
+        state.set_item("model", c.model.name())?;
+        state.set_item("iso_value", c.iso_value)?;
+        state.set_item("anisotropy", c.anisotropy)?;
+        state.set_item("shadow_step_size", c.shadow_step_size)?;
+        state.set_item("jitter", c.jitter)?;
+        state.set_item("jitter_seed", c.jitter_seed)?;
+        state.set_item("pre_integrated", c.pre_integrated)?;
+        state.set_item("order", c.order.name())?;
         Ok((
             slf.get_type().into_any().unbind(),
             (c.step_size, c.max_steps, c.early_ray_termination, c.opacity_threshold, c.reference_step_size, c.opacity_correction.name()),
+            state,
         ))
+    }
+
+    fn __setstate__(slf: &Bound<'_, Self>, state: &Bound<'_, pyo3::types::PyDict>) -> PyResult<()> {
+        for (k, v) in state.iter() {
+            slf.setattr(k.extract::<String>()?.as_str(), v)?;
+        }
+        Ok(())
     }
 
     fn with_step_size(&self, py: Python<'_>, step_size: f64) -> PyResult<PyRenderConfig> {

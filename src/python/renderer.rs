@@ -10,7 +10,7 @@ use crate::integrate::{self, Frame};
 use crate::scene::{Bounds, Camera, Light, LightKind};
 use crate::volume::{VolumeView, Voxels};
 use glam::DVec3;
-use numpy::{PyArray1, PyArray3, PyArrayMethods, PyReadonlyArray2, PyReadonlyArray3, PyReadonlyArray4, PyUntypedArrayMethods};
+use numpy::{PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray2, PyReadonlyArray3, PyReadonlyArray4, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -239,6 +239,18 @@ impl PyRenderer {
         self.inner.empty_fraction()
     }
 
+    /// The last frame's isosurface hit distances as float32 (H, W), row 0 at
+    /// the bottom, inf where no surface was hit; None unless the last frame
+    /// used the isosurface model.
+    fn depth<'py>(&mut self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyArray2<f32>>>> {
+        let (w, h) = self.inner.size();
+        let inner = &mut self.inner;
+        match py.detach(|| inner.depth()).map_err(gpu_err)? {
+            None => Ok(None),
+            Some(d) => Ok(Some(PyArray1::from_vec(py, d).reshape([h as usize, w as usize])?)),
+        }
+    }
+
     #[getter]
     fn device(&self) -> String {
         self.inner.context().describe()
@@ -261,10 +273,12 @@ pub fn quantize<'py>(py: Python<'py>, rgba: PyReadonlyArray3<'py, f32>, straight
 
 /// The f64 integrator: the same frame as the GPU renders, in double
 /// precision. Returns float64 (H, W, 4) premultiplied RGBA (row 0 at the
-/// bottom) and the largest step count a truncated ray needed.
+/// bottom), the largest step count a truncated ray needed, and float64
+/// (H, W) isosurface hit distances (inf where none or another model).
+/// `order` overrides the config's when given.
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
-#[pyo3(signature = (data, normals, min_bounds, max_bounds, lut, camera, light, config, width, height, order="front_to_back"))]
+#[pyo3(signature = (data, normals, min_bounds, max_bounds, lut, camera, light, config, width, height, order=None))]
 pub fn integrate_reference<'py>(
     py: Python<'py>,
     data: &Bound<'py, PyAny>,
@@ -277,22 +291,25 @@ pub fn integrate_reference<'py>(
     config: PyRef<'py, PyRenderConfig>,
     width: u32,
     height: u32,
-    order: &str,
-) -> PyResult<(Bound<'py, PyArray3<f64>>, u64)> {
-    let order = match order {
-        "front_to_back" => integrate::Order::FrontToBack,
-        "back_to_front" => integrate::Order::BackToFront,
-        other => return Err(PyValueError::new_err(format!("order must be 'front_to_back' or 'back_to_front', got '{other}'"))),
-    };
+    order: Option<&str>,
+) -> PyResult<(Bound<'py, PyArray3<f64>>, u64, Bound<'py, PyArray2<f64>>)> {
     let rows = lut_rows(&lut)?;
-    let cfg = config.inner;
+    let mut cfg = config.inner;
+    if let Some(o) = order {
+        cfg.order = crate::model::Order::parse(o).map_err(|e| PyValueError::new_err(e.0))?;
+    }
     cfg.validate().map_err(|e| PyValueError::new_err(e.0))?;
     let camera = camera_from(&camera);
     let light = light_from(&light)?;
-    let (img, needed) = with_volume(data, &normals, min_bounds, max_bounds, |volume| {
+    let img = with_volume(data, &normals, min_bounds, max_bounds, |volume| {
         let frame = Frame { volume, lut: &rows, camera, light, config: cfg, width, height };
-        py.detach(|| integrate::render_ordered(&frame, order)).map_err(|e| PyValueError::new_err(e.0))
+        py.detach(|| integrate::render_image(&frame)).map_err(|e| PyValueError::new_err(e.0))
     })?;
-    let flat: Vec<f64> = img.into_iter().flatten().collect();
-    Ok((PyArray1::from_vec(py, flat).reshape([height as usize, width as usize, 4])?, needed))
+    let flat: Vec<f64> = img.rgba.into_iter().flatten().collect();
+    let shape = [height as usize, width as usize];
+    Ok((
+        PyArray1::from_vec(py, flat).reshape([shape[0], shape[1], 4])?,
+        img.truncated_needed,
+        PyArray1::from_vec(py, img.depth).reshape(shape)?,
+    ))
 }
