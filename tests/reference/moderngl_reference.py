@@ -7,6 +7,10 @@ table is a GL texture. Semantics (README, "Rendering model"): the ray's
 chord through the box is cut into step-long segments, the last one shorter,
 each sampled at its midpoint; a = 1 - exp(-a_tf * len / ref) (or the power
 form); C += T * a * I * rgb; T *= 1 - a; stop when 1 - T >= threshold.
+The other models (README, "Optical models") follow their definitions
+directly: absorption and emission as the same loop without colour or
+without attenuation, single scattering with a shadow ray per sample,
+projections over the midpoint samples, and the isosurface by bisection.
 
 Output: float32 (H, W, 4) premultiplied RGBA, row 0 at the bottom.
 """
@@ -44,6 +48,10 @@ uniform vec3 light_dir;
 uniform float ambient;
 uniform float diffuse;
 uniform float lut_size;
+uniform int model;       // pyvr's model order: 0 EA, 1 abs, 2 em, 3 scatter, 4 mip, 5 minip, 6 avg, 7 iso
+uniform float iso_value;
+uniform float hg_g;
+uniform float shadow_step;
 out vec4 frag;
 
 // numpy axis 0 is world x; the texture's s axis is numpy axis 2.
@@ -93,6 +101,61 @@ float lighting(vec3 q, vec3 p) {
     return ambient + diffuse * max(dot(n / ln, L), 0.0);
 }
 
+float sigma_of(float v) {
+    float a = tf(v).a;
+    if (a <= 0.0) return 0.0;
+    if (power_form == 1) return a >= 1.0 ? 1e30 : -log(1.0 - a);
+    return a;
+}
+
+// Light left after the shadow ray from p to the light (or the box's side).
+float shadow(vec3 p) {
+    vec3 L;
+    float reach = 1e30;
+    if (point_light == 1) {
+        vec3 v = light_pos - p;
+        reach = length(v);
+        if (!(reach > 0.0)) return 1.0;
+        L = v / reach;
+    } else {
+        L = -light_dir;
+    }
+    float exit_t = 1e30;
+    for (int a = 0; a < 3; a++) {
+        if (L[a] > 0.0) exit_t = min(exit_t, (ext[a] - p[a]) / L[a]);
+        if (L[a] < 0.0) exit_t = min(exit_t, -p[a] / L[a]);
+    }
+    float len = min(exit_t, reach);
+    float tau = 0.0;
+    for (float s = 0.0; s < len; s += shadow_step) {
+        float seg = min(shadow_step, len - s);
+        float v = value((p + L * (s + 0.5 * seg)) / ext);
+        if (isnan(v)) continue;
+        tau += sigma_of(v) * seg / ref_step;
+        if (tau > 16.0) break;
+    }
+    return exp(-tau);
+}
+
+float scatter_light(vec3 p, vec3 d) {
+    if (diffuse == 0.0) return ambient;
+    vec3 l = light_dir;
+    if (point_light == 1) {
+        vec3 v = p - light_pos;
+        if (!(length(v) > 0.0)) return ambient;
+        l = normalize(v);
+    } else if (!(length(l) > 0.0)) {
+        return ambient;
+    }
+    float ph = 1.0;
+    if (hg_g != 0.0) {
+        float c = dot(l, -d);
+        float den = 1.0 + hg_g * hg_g - 2.0 * hg_g * c;
+        ph = (1.0 - hg_g * hg_g) / (den * sqrt(den));
+    }
+    return ambient + diffuse * ph * shadow(p);
+}
+
 void main() {
     vec2 ndc = 2.0 * gl_FragCoord.xy / viewport - 1.0;
     vec3 d = normalize(fwd + ndc.x * right + ndc.y * upv);
@@ -109,7 +172,59 @@ void main() {
     }
     if (t0 > t1 || t1 <= 0.0) { frag = vec4(0.0); return; }
     t0 = max(t0, 0.0);
-    int n = int(min(ceil((t1 - t0) / step_size), float(max_steps)));
+    int needed = int(ceil((t1 - t0) / step_size));
+    int n = min(needed, max_steps);
+    if (model >= 4 && model <= 6) {
+        float best = 0.0, sum = 0.0, len_sum = 0.0;
+        bool any = false;
+        for (int i = 0; i < n; i++) {
+            float s = t0 + float(i) * step_size;
+            float len = min(step_size, t1 - s);
+            if (len <= 0.0) break;
+            float v = value((eye + d * (s + 0.5 * len)) / ext);
+            if (isnan(v)) continue;
+            if (model == 6) { sum += v * len; len_sum += len; any = true; }
+            else if (!any) { best = v; any = true; }
+            else if (model == 4) best = max(best, v);
+            else best = min(best, v);
+        }
+        if (!any) { frag = vec4(0.0); return; }
+        if (model == 6) best = sum / len_sum;
+        vec4 c = tf(best);
+        frag = vec4(c.rgb * c.a, c.a);
+        return;
+    }
+    if (model == 7) {
+        // Sample points: entry, midpoints, exit; bisection between the
+        // last point below iso_value and the first at or above it.
+        float prev = t0;
+        float hit = -1.0;
+        if (value((eye + d * t0) / ext) >= iso_value) hit = t0;
+        for (int i = 0; i <= n && hit < 0.0; i++) {
+            float at;
+            if (i < n) {
+                float s = t0 + float(i) * step_size;
+                at = s + 0.5 * min(step_size, t1 - s);
+            } else if (n == needed) {
+                at = t1;
+            } else {
+                break;
+            }
+            if (value((eye + d * at) / ext) >= iso_value) {
+                float lo = prev, hi = at;
+                for (int k = 0; k < 40; k++) {
+                    float m = 0.5 * (lo + hi);
+                    if (value((eye + d * m) / ext) >= iso_value) hi = m; else lo = m;
+                }
+                hit = 0.5 * (lo + hi);
+            }
+            prev = at;
+        }
+        if (hit < 0.0) { frag = vec4(0.0); return; }
+        vec3 p = eye + d * hit;
+        frag = vec4(tf(iso_value).rgb * lighting(p / ext, p), 1.0);
+        return;
+    }
     vec3 C = vec3(0.0);
     float T = 1.0;
     for (int i = 0; i < n; i++) {
@@ -123,12 +238,18 @@ void main() {
         vec4 c = tf(v);
         float a = seg_alpha(c.a, len / ref_step);
         if (a <= 0.0) continue;
-        C += T * a * lighting(q, p) * c.rgb;
+        if (model == 2) {
+            // Emission only: sigma * len / ref of colour, nothing absorbed.
+            C += sigma_of(v) * (len / ref_step) * lighting(q, p) * c.rgb;
+            continue;
+        }
+        if (model == 0) C += T * a * lighting(q, p) * c.rgb;
+        if (model == 3) C += T * a * scatter_light(p, d) * c.rgb;
         T *= 1.0 - a;
         if (early == 1 && 1.0 - T >= threshold) break;
         if (T < 1e-30) { T = 0.0; break; }
     }
-    frag = vec4(C, 1.0 - T);
+    frag = vec4(C, model == 2 ? 0.0 : 1.0 - T);
 }
 """
 
@@ -211,6 +332,9 @@ class ReferenceRenderer:
         eye, f, r, u = _basis(camera, width, height)
         diffuse = float(light.diffuse_intensity)
         shading = 0 if diffuse == 0 else (1 if volume.normals is not None else 2)
+        model = getattr(config, "model", "emission_absorption")
+        models = ["emission_absorption", "absorption", "emission", "single_scattering", "mip", "minip", "average",
+                  "isosurface"]
         ldir = np.asarray(light.target, np.float64) - np.asarray(light.position, np.float64)
         ln = np.linalg.norm(ldir)
         ldir = ldir / ln if ln > 0 else np.zeros(3)
@@ -226,6 +350,9 @@ class ReferenceRenderer:
             "shading": shading, "point_light": int(getattr(light, "kind", "directional") == "point"),
             "light_pos": tuple(np.asarray(light.position, np.float64) - bmin), "light_dir": tuple(ldir),
             "ambient": float(light.ambient_intensity), "diffuse": diffuse, "lut_size": float(self.lut_size),
+            "model": models.index(model), "iso_value": float(getattr(config, "iso_value", 0.5)),
+            "hg_g": float(getattr(config, "anisotropy", 0.0)),
+            "shadow_step": float(getattr(config, "shadow_step_size", 0.0) or config.step_size),
         }
         for k, v in uniforms.items():
             if k in self.prog:
