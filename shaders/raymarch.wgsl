@@ -355,6 +355,9 @@ fn light_transmittance(p: vec3<f32>, taken: ptr<function, u32>) -> f32 {
         if (is_nan(v)) {
             continue;
         }
+        // No empty-space leaps here: on lavapipe they made shadow rays
+        // slower (1348 vs 868 ms on fuel.vti at 256^2) though they took
+        // 36% fewer samples.
         tau += extinction(eval_lut(v).a) * (seg * P.inv_ref);
         if (tau > 16.0) {
             break;
@@ -650,6 +653,7 @@ fn march_iso(r: Ray) {
     let iso = P.model_params.x;
     var prev = 0.0;
     var prev_v = 0.0;
+    var prev_known = true;
     var taken = 0u;
     var found = false;
     var hit = 0.0;
@@ -657,6 +661,7 @@ fn march_iso(r: Ray) {
         let st = ray_state[r.idx];
         prev = st.x;
         prev_v = st.y;
+        prev_known = st.z != 0.0;
     } else {
         prev_v = value_at(tex_of(point_at(r, 0.0)));
         taken += 1u;
@@ -682,6 +687,10 @@ fn march_iso(r: Ray) {
         let v = value_at(tex_of(point_at(r, at)));
         taken += 1u;
         if (!below_iso(v)) {
+            if (!prev_known) {
+                prev_v = value_at(tex_of(point_at(r, prev)));
+                taken += 1u;
+            }
             var lo = prev;
             var hi = at;
             var vlo = prev_v;
@@ -705,12 +714,31 @@ fn march_iso(r: Ray) {
             found = true;
             break;
         }
+        if (SKIP_EMPTY && i <= r.end) {
+            // Below iso_value here; if no value in this cell reaches it,
+            // leap to the first midpoint past the cell, keeping as the
+            // bracket's lower end the last midpoint inside it.
+            let exit = empty_cell_exit(tex_of(point_at(r, at)), r.d);
+            if (exit >= 0.0) {
+                let k = ceil((at + exit) / P.step_size - 0.5 - r.shift - 1e-3);
+                let next = u32(clamp(k, f32(i), f32(r.end)));
+                if (next > i) {
+                    let sp = span(r, next - 1u);
+                    prev = sp.x + 0.5 * sp.y;
+                    // Sampled only if the next sample hits (below).
+                    prev_known = false;
+                    i = next;
+                    continue;
+                }
+            }
+        }
         prev = at;
         prev_v = v;
+        prev_known = true;
     }
     count_samples(taken);
     if (!found && r.end < r.n) {
-        suspend(r, vec4<f32>(prev, prev_v, 0.0, 0.0));
+        suspend(r, vec4<f32>(prev, prev_v, select(0.0, 1.0, prev_known), 0.0));
         return;
     }
     if (!found) {

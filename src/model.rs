@@ -81,6 +81,12 @@ impl Model {
         self.integrates()
     }
 
+    /// Some cells can be leapt over: transparent ones (integrating models)
+    /// or, for the isosurface, ones whose values stay below `iso_value`.
+    pub fn skips_cells(self) -> bool {
+        self.integrates() || self == Model::Isosurface
+    }
+
     /// Rays may stop once opaque (alpha is the accumulated opacity).
     pub fn terminates_early(self) -> bool {
         matches!(self, Model::EmissionAbsorption | Model::Absorption | Model::SingleScattering)

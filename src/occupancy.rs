@@ -53,6 +53,18 @@ impl MinMaxGrid {
         MinMaxGrid { dims: g, min, max }
     }
 
+    /// 1 for cells where the interpolated value can reach `iso` (the
+    /// isosurface model's first hit can only lie there), 0 elsewhere. The
+    /// margin covers f32 interpolation rounding past a cell's maximum.
+    pub fn occupancy_reaching(&self, iso: f64) -> Vec<u8> {
+        let margin = 1e-6 * iso.abs().max(1.0);
+        self.min
+            .iter()
+            .zip(&self.max)
+            .map(|(&lo, &hi)| (lo <= hi && hi as f64 >= iso - margin) as u8)
+            .collect()
+    }
+
     /// 1 for cells the table can make visible, 0 for empty ones.
     pub fn occupancy(&self, lut: &[[f32; 4]]) -> Vec<u8> {
         let m = lut.len();

@@ -402,3 +402,34 @@ def test_model_config_fields_validate_and_round_trip():
         cfg.replace(colour=1)
     # pyvr's positional signature is unchanged.
     assert RenderConfig(0.02, 100, False, 0.9).model == "emission_absorption"
+
+
+def test_isosurface_skipping_and_multi_pass_keep_every_hit():
+    # A small sphere in a large box: most cells stay below the iso value.
+    # At step 1e-4 rays need up to 34642 steps: three dispatches, with the
+    # bracket carried between them.
+    n = 48
+    ax = (np.arange(n) + 0.5) / n * 2 - 1
+    x, y, z = np.meshgrid(ax, ax, ax, indexing="ij")
+    data = (1.0 - np.sqrt((x - 0.3) ** 2 + y**2 + z**2)).astype(np.float32)
+    vol = Volume(data, None, np.array([-1, -1, -1], np.float32), np.array([1, 1, 1], np.float32))
+    cam = Camera.from_spherical(target=np.zeros(3, np.float32), azimuth=0.5, elevation=0.3, roll=0.0, distance=3.0)
+    cfg = RenderConfig(model="isosurface", iso_value=0.7, step_size=1e-4, max_steps=40_000)
+    r = renderer(vol, ColorTransferFunction.single_color((0.8, 0.7, 0.6)), OpacityTransferFunction.linear(), cam,
+                 Light.default(), cfg, 24, 20)
+    img = r.render(dtype=np.float32, premultiplied=True)
+    assert r.last_frame_stats["passes"] == 3
+    assert r.empty_fraction() > 0.8
+    depth, skipped = r.depth(), r.last_frame_stats["samples"]
+    r.empty_space_skipping = False
+    img_full = r.render(dtype=np.float32, premultiplied=True)
+    assert skipped * 5 < r.last_frame_stats["samples"]
+    full = r.depth()
+    hit = np.isfinite(depth)
+    assert np.array_equal(hit, np.isfinite(full))
+    assert np.abs(depth[hit] - full[hit]).max() < 1e-5
+    assert np.abs(img - img_full).max() < 0.5 / 255
+    r.render_float64(premultiplied=True)
+    oracle = r.last_float64_depth
+    assert hit.sum() > 20 and np.array_equal(hit, np.isfinite(oracle))
+    assert np.abs(depth[hit] - oracle[hit]).max() < 1e-4

@@ -45,7 +45,7 @@ impl Variant {
         Variant {
             hw_filter,
             // Pre-integrated segments are not split at cell borders.
-            skip_empty: skip_empty && model.skips_transparent() && !cfg.pre_integrated,
+            skip_empty: skip_empty && model.skips_cells() && !cfg.pre_integrated,
             shading,
             // The light's kind only matters when a diffuse term is computed.
             point_light: shading != Shading::AmbientOnly && light == LightKind::Point,

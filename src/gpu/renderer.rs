@@ -144,6 +144,8 @@ pub struct GpuRenderer {
     /// The table last uploaded, kept to recompute occupancy for a new volume.
     lut_rows: Vec<[f32; 4]>,
     occupancy: Option<wgpu::TextureView>,
+    /// What the occupancy grid was built from.
+    occ_source: Option<OccSource>,
     /// Fraction of level-0 cells the current table leaves empty. Above 0 the
     /// skipping variant is worth its cost (its branch slows dense scenes by
     /// ~20% on lavapipe); at 1 no ray needs marching.
@@ -170,6 +172,15 @@ pub struct GpuRenderer {
     bind_group: Option<wgpu::BindGroup>,
     pending_upload: u64,
     pub counters: Counters,
+}
+
+/// What decides which occupancy cells are empty.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum OccSource {
+    /// Zero opacity under this version of the transfer function.
+    Lut(u64),
+    /// Values below this iso value (bits of the f64).
+    Below(u64),
 }
 
 /// What a pre-integration table depends on.
@@ -256,6 +267,7 @@ impl GpuRenderer {
             volume: None,
             lut_rows: Vec::new(),
             occupancy: None,
+            occ_source: None,
             empty_fraction: 0.0,
             occ_levels: 1,
             skip_empty: true,
@@ -406,8 +418,9 @@ impl GpuRenderer {
         let grid = MinMaxGrid::build(vol);
         self.volume = Some(VolumeGpu { filterable, view, normals, dims: vol.dims, bounds: vol.bounds, bytes: total, grid });
         self.bind_group = None;
+        self.occ_source = None;
         if !self.lut_rows.is_empty() {
-            self.update_occupancy()?;
+            self.update_occupancy(OccSource::Lut(self.lut_version))?;
         }
         self.pending_upload += total;
         self.counters.volume_uploads += 1;
@@ -444,20 +457,27 @@ impl GpuRenderer {
         self.lut_version += 1;
         self.bind_group = None;
         if self.volume.is_some() {
-            self.update_occupancy()?;
+            self.update_occupancy(OccSource::Lut(self.lut_version))?;
         }
         self.pending_upload += bytes.len() as u64;
         self.counters.lut_uploads += 1;
         Ok(())
     }
 
-    /// Which occupancy cells the current table can make visible, uploaded as
-    /// a small R8Uint 3-D texture (one byte per 8^3 voxels).
-    fn update_occupancy(&mut self) -> Result<(), GpuError> {
+    /// Which occupancy cells the current table can make visible (or, for
+    /// the isosurface, can reach the iso value), uploaded as a small R8Uint
+    /// 3-D texture (one byte per 8^3 voxels).
+    fn update_occupancy(&mut self, source: OccSource) -> Result<(), GpuError> {
         let Some(vol) = self.volume.as_ref() else {
             return Ok(());
         };
-        let occ = vol.grid.occupancy(&self.lut_rows);
+        if self.occ_source == Some(source) {
+            return Ok(());
+        }
+        let occ = match source {
+            OccSource::Lut(_) => vol.grid.occupancy(&self.lut_rows),
+            OccSource::Below(bits) => vol.grid.occupancy_reaching(f64::from_bits(bits)),
+        };
         let [g0, g1, g2] = vol.grid.dims;
         // Up to 4 levels (cells of 8, 16, 32, 64 voxels), as a mip chain allows.
         let largest = g0.max(g1).max(g2) as u32;
@@ -470,6 +490,7 @@ impl GpuRenderer {
         self.empty_fraction = occ.iter().filter(|&&o| o == 0).count() as f64 / occ.len() as f64;
         self.occ_levels = levels as u32;
         self.occupancy = Some(view);
+        self.occ_source = Some(source);
         self.bind_group = None;
         Ok(())
     }
@@ -532,11 +553,19 @@ impl GpuRenderer {
         if out.len() != n {
             return Err(GpuError(format!("output slice has {} floats, expected {n}", out.len())));
         }
-        let vol = self.volume.as_ref().ok_or_else(|| GpuError("no volume loaded: call load_volume() first".into()))?;
+        if self.volume.is_none() {
+            return Err(GpuError("no volume loaded: call load_volume() first".into()));
+        }
         if self.lut.is_none() {
             return Err(GpuError("no transfer function set: call set_transfer_functions() first".into()));
         }
         cfg.validate().map_err(|e| GpuError(e.0))?;
+        let source = match cfg.model {
+            Model::Isosurface => OccSource::Below(cfg.iso_value.to_bits()),
+            _ => OccSource::Lut(self.lut_version),
+        };
+        self.update_occupancy(source)?;
+        let vol = self.volume.as_ref().expect("checked above");
         let mut params = self.params(vol, camera, light, cfg)?;
         self.depth_ready = false;
         if self.skip_empty && self.empty_fraction == 1.0 && cfg.model.skips_transparent() {
