@@ -35,20 +35,22 @@ BOX = (np.full(3, -1.0, np.float32), np.full(3, 1.0, np.float32))
 
 def model_setups():
     """(label, config changes, colour TF, opacity TF, light) per model."""
-    plasma = ColorTransferFunction.from_colormap("plasma")
+    plasma = ColorTransferFunction.from_colormap("plasma", value_range=(0.0, 0.35))
     gray = ColorTransferFunction.from_colormap("gray")
-    dense = OpacityTransferFunction.linear(0.0, 0.12)
-    sun = Light.directional([-1.0, -0.6, -0.4], ambient=0.15, diffuse=0.85)
+    dense = OpacityTransferFunction([(0.0, 0.0), (0.05, 0.02), (0.6, 0.5), (1.0, 0.5)])
+    sun = Light.directional([-1.0, -0.6, -0.4], ambient=0.3, diffuse=0.9)
     return [
         ("emission_absorption", {}, plasma, dense, Light.default()),
-        ("absorption", {"model": "absorption"}, gray, dense, Light.default()),
-        ("emission", {"model": "emission"}, plasma, OpacityTransferFunction.linear(0.0, 0.03), Light.default()),
+        ("absorption", {"model": "absorption"}, gray, OpacityTransferFunction.linear(0.0, 0.1), Light.default()),
+        ("emission", {"model": "emission"}, plasma, OpacityTransferFunction.linear(0.0, 0.1), Light.default()),
         ("single_scattering", {"model": "single_scattering", "anisotropy": 0.3}, plasma, dense, sun),
         ("mip", {"model": "mip"}, ColorTransferFunction.from_colormap("inferno"),
          OpacityTransferFunction.linear(0.0, 1.0), Light.default()),
-        ("minip", {"model": "minip"}, gray, OpacityTransferFunction.linear(1.0, 0.0), Light.default()),
-        ("average", {"model": "average"}, ColorTransferFunction.from_colormap("viridis"),
-         OpacityTransferFunction.linear(0.0, 1.0), Light.default()),
+        # Every ray through fuel.vti's box meets zeros: its minimum is 0 everywhere.
+        ("minip", {"model": "minip"}, ColorTransferFunction.from_colormap("viridis"),
+         OpacityTransferFunction.linear(1.0, 0.0), Light.default()),
+        ("average", {"model": "average"}, ColorTransferFunction.from_colormap("viridis", value_range=(0.0, 0.08)),
+         OpacityTransferFunction([(0.0, 0.0), (0.08, 1.0), (1.0, 1.0)]), Light.default()),
         ("isosurface", {"model": "isosurface", "iso_value": 0.3}, ColorTransferFunction.single_color((0.85, 0.75, 0.6)),
          dense, sun),
         ("ea + pre-integration", {"pre_integrated": True}, plasma, dense, Light.default()),
@@ -74,9 +76,13 @@ def run(volume, size, frames, keep_images=False):
         st = r.last_frame_stats
         rows.append((label, float(np.median(times)), st["samples"] / (size * size), st["passes"]))
         if keep_images:
+            img = img.copy()
             if label == "emission":
-                img = img.copy()
-                img[..., 3] = 255  # additive glow: show it over black
+                img[..., 3] = img[..., :3].max(axis=-1)  # additive glow: show it added to the background
+            elif label == "absorption":
+                # Shown as a radiograph: transmittance over a white backlight.
+                img[..., :3] = (255 - img[..., 3:4].astype(np.int32)).astype(np.uint8)
+                img[..., 3] = 255
             images.append(img)
     return rows, images
 
@@ -102,7 +108,10 @@ def main():
         vol = Volume(fuel.astype(np.float32), None, *BOX)
         rows, images = run(vol, args.size, args.frames, keep_images=True)
         table("fuel.vti (64^3 float32)", rows)
-        save_grid(images[:8], [r[0] for r in rows[:8]], args.gallery, cols=4)
+        labels = [r[0] for r in rows[:8]]
+        labels[1] = "absorption (over white)"
+        labels[5] = "minip (0 on every ray)"
+        save_grid(images[:8], labels, args.gallery, cols=4)
         print(f"gallery: {os.path.normpath(args.gallery)}")
     else:
         print(f"{FUEL} not found: fuel scene skipped")
