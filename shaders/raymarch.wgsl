@@ -583,9 +583,10 @@ fn march_integrate(r: Ray) {
     }
     if (!stopped) {
         report_truncation(r);
-        trans = exp(-tau);
     }
-    var alpha = 1.0 - trans;
+    // 1 - exp(-tau) without cancellation: a faint ray keeps its alpha (and
+    // so its straight colour C / alpha) instead of rounding to 0.
+    var alpha = select(one_minus_exp_neg(tau), 1.0, trans == 0.0);
     if (MODEL == 2u) {
         alpha = 0.0;
     }
