@@ -76,7 +76,7 @@ struct Params {
 @group(0) @binding(5) var<storage, read_write> stats: array<atomic<u32>, 3>;
 // Filtering when HW_FILTER, non-filtering otherwise (then never sampled).
 @group(0) @binding(6) var volume_sampler: sampler;
-// Always filtering: normals are stored as Rgba16Float.
+// Always filtering: normals are stored as Rgba8Snorm.
 @group(0) @binding(7) var linear_sampler: sampler;
 // Per pixel, between passes: (colour, tau).
 @group(0) @binding(8) var<storage, read_write> ray_state: array<vec4<f32>>;

@@ -100,7 +100,7 @@ def test_camera_only_rerender_uploads_no_volume():
     assert after["volume_uploads"] == before["volume_uploads"] == 1
     assert after["lut_uploads"] == before["lut_uploads"]
     assert r.last_frame_stats["uploaded_bytes"] < 512
-    assert after["volume_bytes"] == 32**3 * 4 + 32**3 * 8  # R32Float + Rgba16Float normals
+    assert after["volume_bytes"] == 32**3 * 4 + 32**3 * 4  # R32Float + Rgba8Snorm normals
 
 
 def test_dtypes_layouts_and_inputs_untouched():

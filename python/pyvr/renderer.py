@@ -238,7 +238,8 @@ class VolumeRenderer:
         return out
 
     def render_float64(self, *, config: Optional[RenderConfig] = None, premultiplied: bool = False,
-                       origin: str = "lower", order: Optional[str] = None) -> np.ndarray:
+                       origin: str = "lower", order: Optional[str] = None,
+                       size: Optional[tuple] = None) -> np.ndarray:
         """The same frame from the float64 CPU integrator (the engine's oracle).
 
         Slow (CPU, one thread per core); meant for checking accuracy, e.g.
@@ -247,6 +248,8 @@ class VolumeRenderer:
         ``config`` defaults to the renderer's; ``order`` ("front_to_back" or
         "back_to_front", equal without early termination) overrides its order.
         Isosurface hit distances are left in ``last_float64_depth``.
+        ``size=(width, height)`` renders the same view at another resolution
+        (e.g. a coarse pilot of the rays).
         """
         if self.volume is None:
             raise RuntimeError("no volume loaded: call load_volume() before render_float64()")
@@ -258,14 +261,28 @@ class VolumeRenderer:
         if not self._has_tf:
             self.set_transfer_functions(ColorTransferFunction(), OpacityTransferFunction())
         camera = self._camera_args or self._default_camera_args()
+        width, height = (self.width, self.height) if size is None else (int(size[0]), int(size[1]))
+        if width < 1 or height < 1:
+            raise ValueError(f"size must be two positive integers, got {size!r}")
         img, _, depth = _core.integrate_reference(
             prepare_voxels(self.volume.data), prepare_normals(self.volume.normals), *self._bounds, self._lut,
-            camera, self._light_args, cfg, self.width, self.height, order,
+            camera, self._light_args, cfg, width, height, order,
         )
         self.last_float64_depth = depth
         if not premultiplied:
             img[..., :3] = _straight(img)
         return np.ascontiguousarray(img[::-1]) if origin == "upper" else img
+
+    def config_for_error(self, max_error_levels: float = 1.0, **options) -> RenderConfig:
+        """The cheapest config predicted to keep this scene's frame within
+        ``max_error_levels`` 8-bit levels of the exact image (see
+        :func:`pyvr.accuracy.config_for_error`, which also returns what it
+        predicted). Needs the volume, transfer functions and camera set."""
+        from .accuracy import config_for_error
+
+        if self.volume is None or not self._has_tf:
+            raise RuntimeError("config_for_error needs load_volume() and set_transfer_functions() first")
+        return config_for_error(self, max_error_levels, **options)[0]
 
     def depth(self, *, origin: str = "lower") -> Optional[np.ndarray]:
         """Distance from the camera to the isosurface along each pixel's ray

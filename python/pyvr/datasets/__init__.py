@@ -1,7 +1,7 @@
 """Synthetic volumes for examples, tests and benchmarks, and a reader for
 VTK image data files."""
 
-from .synthetic import compute_normal_volume, create_sample_volume
+from .synthetic import compute_normal_volume, create_sample_volume, shepp_logan_3d
 from .vti import VtiImage, load_vti
 
-__all__ = ["create_sample_volume", "compute_normal_volume", "load_vti", "VtiImage"]
+__all__ = ["create_sample_volume", "compute_normal_volume", "shepp_logan_3d", "load_vti", "VtiImage"]

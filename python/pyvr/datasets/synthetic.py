@@ -59,6 +59,40 @@ def create_sample_volume(size: int = 64, shape: str = "sphere") -> np.ndarray:
     return v.astype(np.float32)
 
 
+# The modified 3-D Shepp–Logan head phantom (Kak and Slaney's ellipsoids
+# with Toft's higher-contrast intensities): intensity added inside each
+# ellipsoid, semi-axes (a, b, c), centre (x0, y0, z0), rotation phi about z
+# in degrees. Values in [0, 1]: skull 1, brain 0.2, features 0.1 to 0.4.
+_SHEPP_LOGAN = [
+    (1.0, 0.6900, 0.920, 0.810, 0.0, 0.0, 0.0, 0.0),
+    (-0.8, 0.6624, 0.874, 0.780, 0.0, -0.0184, 0.0, 0.0),
+    (-0.2, 0.1100, 0.310, 0.220, 0.22, 0.0, 0.0, -18.0),
+    (-0.2, 0.1600, 0.410, 0.280, -0.22, 0.0, 0.0, 18.0),
+    (0.1, 0.2100, 0.250, 0.410, 0.0, 0.35, -0.15, 0.0),
+    (0.1, 0.0460, 0.046, 0.050, 0.0, 0.1, 0.25, 0.0),
+    (0.1, 0.0460, 0.046, 0.050, 0.0, -0.1, 0.25, 0.0),
+    (0.1, 0.0460, 0.023, 0.050, -0.08, -0.605, 0.0, 0.0),
+    (0.1, 0.0230, 0.023, 0.020, 0.0, -0.606, 0.0, 0.0),
+    (0.1, 0.0230, 0.046, 0.020, 0.06, -0.605, 0.0, 0.0),
+]
+
+
+def shepp_logan_3d(size: int = 128) -> np.ndarray:
+    """A (size, size, size) float32 Shepp–Logan head phantom, ``data[i, j, k]``
+    at world (x, y, z) on the cell centres of [-1, 1]^3: a dense, CT-like
+    volume with sharp edges."""
+    c = (np.arange(size, dtype=np.float64) + 0.5) / size * 2 - 1
+    x, y, z = np.meshgrid(c, c, c, indexing="ij")
+    v = np.zeros((size, size, size), np.float64)
+    for amp, a, b, cc, x0, y0, z0, phi in _SHEPP_LOGAN:
+        t = np.deg2rad(phi)
+        dx, dy, dz = x - x0, y - y0, z - z0
+        u = dx * np.cos(t) + dy * np.sin(t)
+        w = -dx * np.sin(t) + dy * np.cos(t)
+        v += amp * ((u / a) ** 2 + (w / b) ** 2 + (dz / cc) ** 2 <= 1.0)
+    return np.clip(v, 0.0, 1.0).astype(np.float32)
+
+
 def compute_normal_volume(volume: np.ndarray) -> np.ndarray:
     """Unit gradient directions (toward increasing value), shape volume.shape + (3,).
 
