@@ -1,0 +1,354 @@
+"""The speed/accuracy trade, measured: error against a converged image and
+frame time, for our engine and its peers, on the same scenes in one run.
+
+Scenes: pyvr's benchmark scene (256^3 double_sphere with normals, [-1,1]^3,
+512x512, isometric camera at distance 3), the 3-D Shepp-Logan phantom
+(256^3, dense, CT-like), a helix (sparse), ../shared/data/fuel.vti when
+present, a torus under a TF of narrow peaks (high frequency), and an
+anisotropic non-cubic volume; all but the first at 256x256.
+
+Engines: ours at each preset, at a sweep of steps (no early termination)
+and at error-targeted configs (targets 1 and 4 levels); the moderngl/GLSL
+reference (pyvr's semantics) at each preset; VTK's CPU
+(vtkFixedPointVolumeRayCastMapper) and GPU (vtkGPUVolumeRayCastMapper) ray
+casters from the `vtk` wheel, headless through EGL, at a sweep of sample
+distances. Ours and the reference are scored against the float64
+integrator's converged image (steps halved until Richardson's estimate of
+its error is under 0.1 level); each VTK mapper against its own finest image.
+
+Errors: premultiplied RGBA (VTK: RGB over black) in 8-bit levels, max and
+RMSE (pyvr.accuracy). Times: median of --frames frames after one warm-up
+(one frame for configs slower than 4 s), readback included.
+
+Output: a table per scene on stdout, JSON (--json) and a log-log plot of
+max error against time (--plot), one curve per engine.
+
+Run: .venv/bin/python benches/accuracy.py [--frames N] [--quick] [--no-vtk]
+"""
+
+import argparse
+import json
+import os
+import sys
+import time
+import warnings
+
+import numpy as np
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "examples"))
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "tests"))
+os.environ.setdefault("PYVR_BACKEND", "vulkan")  # keep wgpu off the EGL context moderngl and VTK use
+os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+
+from _common import out_path  # noqa: E402
+
+from pyvr import RenderConfig, VolumeRenderer, accuracy  # noqa: E402
+from pyvr.camera import Camera  # noqa: E402
+from pyvr.datasets import compute_normal_volume, create_sample_volume, load_vti, shepp_logan_3d  # noqa: E402
+from pyvr.lighting import Light  # noqa: E402
+from pyvr.transferfunctions import ColorTransferFunction, OpacityTransferFunction  # noqa: E402
+from pyvr.volume import Volume  # noqa: E402
+
+FUEL = os.path.join(os.path.dirname(__file__), "..", "..", "shared", "data", "fuel.vti")
+BOX = (np.full(3, -1.0, np.float32), np.full(3, 1.0, np.float32))
+PRESETS = ["preview", "fast", "balanced", "high_quality", "ultra_quality"]
+SWEEP = [0.0025, 0.0035, 0.005, 0.007, 0.01, 0.014, 0.02, 0.028, 0.04, 0.057, 0.08, 0.113, 0.16]
+VTK_SWEEP = [0.005, 0.01, 0.02, 0.04, 0.08, 0.16]
+TARGETS = [1.0, 4.0]
+
+
+def scenes(quick):
+    n = 96 if quick else 256
+    px = 128 if quick else 256
+    out = []
+    ds = create_sample_volume(n, "double_sphere")
+    out.append(("benchmark", Volume(ds, compute_normal_volume(ds), *BOX), ColorTransferFunction.from_colormap("plasma"),
+                OpacityTransferFunction.linear(0.0, 0.1), Light.default(), 2 * px))
+    out.append(("shepp_logan", Volume(shepp_logan_3d(n), None, *BOX), ColorTransferFunction.from_colormap("bone"),
+                OpacityTransferFunction([(0.0, 0.0), (0.15, 0.0), (0.25, 0.02), (0.35, 0.3), (1.0, 0.05)]),
+                Light.ambient_only(1.0), px))
+    out.append(("helix (sparse)", Volume(create_sample_volume(n // 2, "helix"), None, *BOX),
+                ColorTransferFunction.from_colormap("viridis"), OpacityTransferFunction.one_step(0.5, 0.0, 0.6),
+                Light.default(), px))
+    if os.path.exists(FUEL):
+        fuel = (load_vti(FUEL).data / np.float32(255.0)).astype(np.float32)
+        out.append(("fuel.vti", Volume(fuel, None, *BOX), ColorTransferFunction.from_colormap("inferno"),
+                    OpacityTransferFunction.linear(0.0, 0.5), Light.ambient_only(1.0), px))
+    out.append(("narrow peaks (torus)", Volume(create_sample_volume(n // 2, "torus"), None, *BOX),
+                ColorTransferFunction.from_colormap("viridis"),
+                OpacityTransferFunction.peaks([0.25, 0.5, 0.75], opacity=0.6, eps=0.02), Light.ambient_only(1.0), px))
+    aniso = create_sample_volume(n // 2, "random_blob")[:, : n // 4, : n // 8]
+    out.append(("anisotropic", Volume(np.ascontiguousarray(aniso), None, np.array([-1.2, -0.5, -0.3], np.float32),
+                                      np.array([1.2, 0.5, 0.3], np.float32)),
+                ColorTransferFunction.from_colormap("magma"), OpacityTransferFunction.linear(0.0, 0.3),
+                Light.default(), px))
+    return out
+
+
+def timed(fn, frames):
+    fn()
+    t = time.perf_counter()
+    first = fn()
+    times = [time.perf_counter() - t]
+    if times[0] < 4.0:
+        for _ in range(frames - 1):
+            t = time.perf_counter()
+            fn()
+            times.append(time.perf_counter() - t)
+    return first, float(np.median(times) * 1e3)
+
+
+# -- VTK -----------------------------------------------------------------------
+
+class VtkPeer:
+    """One VTK mapper on the same volume, transfer function and camera."""
+
+    def __init__(self, kind, volume, lut, camera, light, size, reference_step):
+        import vtk
+        from vtk.util import numpy_support
+
+        self.vtk = vtk
+        data = np.asarray(volume.data, np.float32)
+        lo, hi = np.asarray(volume.min_bounds, np.float64), np.asarray(volume.max_bounds, np.float64)
+        spacing = (hi - lo) / np.array(data.shape)
+        img = vtk.vtkImageData()
+        img.SetDimensions(*data.shape)
+        img.SetSpacing(*spacing)
+        img.SetOrigin(*(lo + spacing / 2))
+        img.GetPointData().SetScalars(numpy_support.numpy_to_vtk(data.ravel(order="F"), deep=True))
+        ctf, otf = vtk.vtkColorTransferFunction(), vtk.vtkPiecewiseFunction()
+        m = len(lut)
+        for i in range(0, m, max(1, m // 128)):
+            v = i / (m - 1)
+            ctf.AddRGBPoint(v, *lut[i, :3])
+            otf.AddPoint(v, float(lut[i, 3]))
+        prop = vtk.vtkVolumeProperty()
+        prop.SetColor(ctf)
+        prop.SetScalarOpacity(otf)
+        prop.SetScalarOpacityUnitDistance(reference_step)
+        prop.SetInterpolationTypeToLinear()
+        if light.diffuse_intensity > 0:
+            prop.ShadeOn()
+            prop.SetAmbient(light.ambient_intensity)
+            prop.SetDiffuse(light.diffuse_intensity)
+            prop.SetSpecular(0.0)
+        self.mapper = (vtk.vtkFixedPointVolumeRayCastMapper if kind == "cpu" else vtk.vtkGPUVolumeRayCastMapper)()
+        self.mapper.SetInputData(img)
+        self.mapper.SetAutoAdjustSampleDistances(0)
+        if kind == "cpu":
+            self.mapper.SetImageSampleDistance(1.0)
+        else:
+            self.mapper.SetUseJittering(0)
+        actor = vtk.vtkVolume()
+        actor.SetMapper(self.mapper)
+        actor.SetProperty(prop)
+        ren = vtk.vtkRenderer()
+        ren.AddVolume(actor)
+        ren.SetBackground(0, 0, 0)
+        cam = ren.GetActiveCamera()
+        pos, up = camera.get_camera_vectors()
+        cam.SetPosition(*np.asarray(pos, np.float64))
+        cam.SetFocalPoint(*np.asarray(camera.target, np.float64))
+        cam.SetViewUp(*np.asarray(up, np.float64))
+        cam.SetViewAngle(np.degrees(camera.fov))
+        ren.ResetCameraClippingRange()
+        self.win = vtk.vtkRenderWindow()
+        self.win.SetOffScreenRendering(1)
+        self.win.AddRenderer(ren)
+        self.win.SetSize(*size)
+        self.grab = vtk.vtkWindowToImageFilter()
+        self.grab.SetInput(self.win)
+        self.grab.SetInputBufferTypeToRGB()
+        self.grab.ReadFrontBufferOff()
+        self.size = size
+
+    def render(self, sample_distance):
+        from vtk.util import numpy_support
+
+        self.mapper.SetSampleDistance(sample_distance)
+        self.win.Render()
+        self.grab.Modified()
+        self.grab.Update()
+        rgb = numpy_support.vtk_to_numpy(self.grab.GetOutput().GetPointData().GetScalars())
+        rgb = rgb.reshape(self.size[1], self.size[0], 3).astype(np.float64) / 255.0
+        return np.concatenate([rgb, np.zeros(rgb.shape[:2] + (1,))], axis=-1)
+
+    def release(self):
+        self.win.Finalize()
+
+
+# -- one scene -------------------------------------------------------------------
+
+def run_scene(scene, frames, use_reference):
+    """Ours and the moderngl reference; returns the result and the LUT."""
+    name, vol, ctf, otf, light, px = scene
+    cam = Camera.isometric_view(distance=3.0)
+    r = VolumeRenderer(px, px, light=light)
+    r.load_volume(vol)
+    r.set_camera(cam)
+    r.set_transfer_functions(ctf, otf)
+    t = time.perf_counter()
+    conv, info = accuracy.converged_image(r, tolerance=0.1)
+    res = {"scene": name, "pixels": px, "converged": {**info, "seconds": time.perf_counter() - t}, "points": []}
+
+    def ours(label, cfg, kind):
+        r.set_config(cfg)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            img, ms = timed(lambda: r.render(dtype=np.float32, premultiplied=True), frames)
+        samples = r.last_frame_stats["samples"]
+        res["points"].append({"engine": "pyvr", "kind": kind, "label": label, "step": cfg.step_size, "ms": ms,
+                              "samples_per_s": samples / ms * 1e3, **accuracy.error_metrics(img, conv)})
+
+    for p in PRESETS:
+        ours(p, getattr(RenderConfig, p)(), "preset")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for h in SWEEP:
+            ours(f"step {h}", RenderConfig(step_size=h, max_steps=int(3.5 / h) + 2, early_ray_termination=False),
+                 "sweep")
+        r.set_config(RenderConfig.balanced())
+        for target in TARGETS:
+            t = time.perf_counter()
+            cfg, _ = accuracy.config_for_error(r, target)
+            pick = time.perf_counter() - t
+            ours(f"target {target:g}", cfg, "target")
+            chosen = res["points"][-1]
+            chosen.update({"target": target, "choose_s": pick})
+            # Larger steps than the chosen one: the cheapest step that meets
+            # the target (and all smaller ones) bounds what the choice costs.
+            cheapest = cfg.step_size
+            for f in (2**0.5, 2.0, 2**1.5):
+                ours(f"target {target:g} x{f:.2g}", cfg.replace(step_size=cfg.step_size * f), "probe")
+                if res["points"][-1]["max"] > target:
+                    break
+                cheapest = cfg.step_size * f
+            chosen["cheapest_step_found"] = cheapest
+            chosen["cost_vs_cheapest"] = cheapest / cfg.step_size
+            chosen["cost_vs_cheapest_bound"] = min(2**1.5, 2**0.5 * cheapest / cfg.step_size)
+
+    if use_reference:
+        from reference.moderngl_reference import ReferenceRenderer
+
+        ref = ReferenceRenderer(vol, ctf, otf, px, px)
+        try:
+            for p in PRESETS:
+                cfg = getattr(RenderConfig, p)()
+                img, ms = timed(lambda: ref.render(cam, light, cfg), frames)
+                res["points"].append({"engine": "moderngl", "kind": "preset", "label": p, "step": cfg.step_size,
+                                      "ms": ms, **accuracy.error_metrics(img, conv)})
+        finally:
+            ref.release()
+
+    return res, r._lut
+
+
+def run_vtk(scene, lut, res, frames):
+    """VTK's mappers, after every moderngl frame: VTK's EGL windows leave
+    their own context current, which moderngl's would not survive."""
+    name, vol, ctf, otf, light, px = scene
+    cam = Camera.isometric_view(distance=3.0)
+    for kind in ("cpu", "gpu"):
+        peer = VtkPeer(kind, vol, lut, cam, light, (px, px), RenderConfig().reference_step_size)
+        try:
+            finest = peer.render(VTK_SWEEP[0] / 2)
+            for h in VTK_SWEEP:
+                img, ms = timed(lambda: peer.render(h), frames)
+                m = accuracy.error_metrics(img, finest)
+                res["points"].append({"engine": f"vtk-{kind}", "kind": "sweep", "label": f"step {h}", "step": h,
+                                      "ms": ms, **m})
+        finally:
+            peer.release()
+
+
+def cheapest_at(points, max_error):
+    ok = [p for p in points if p["engine"] == "pyvr" and p["max"] <= max_error]
+    return min(ok, key=lambda p: p["ms"]) if ok else None
+
+
+def report(res):
+    print(f"\n== {res['scene']} ({res['pixels']}x{res['pixels']}); converged: step {res['converged']['step']:.4g}, "
+          f"estimated error {res['converged']['estimated_max_error']:.3f} levels, {res['converged']['seconds']:.0f} s")
+    print(f"{'engine':<9} {'config':<15} {'step':>7} {'ms':>8} {'max err':>8} {'rmse':>7} {'>1 lvl':>7} "
+          f"{'ours at <= err':>15}")
+    for p in res["points"]:
+        if p["kind"] == "probe":
+            continue
+        best = cheapest_at(res["points"], p["max"])
+        vs = f"{p['ms'] / best['ms']:6.1f}x ({best['label']})" if best and p["engine"] != "pyvr" else ""
+        if "target" in p:
+            ok = "met" if p["max"] <= p["target"] else "MISSED"
+            vs = (f"{ok}; costs {p['cost_vs_cheapest']:.2f}-{p['cost_vs_cheapest_bound']:.2f}x the cheapest step "
+                  f"meeting it; chosen in {p['choose_s']:.1f} s")
+        print(f"{p['engine']:<9} {p['label']:<15} {p['step']:7.4g} {p['ms']:8.1f} {p['max']:8.2f} {p['rmse']:7.3f} "
+              f"{p['frac_over_1'] * 100:6.2f}% {vs}")
+
+
+def plot(results, path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    cols = 3
+    rows = (len(results) + cols - 1) // cols
+    fig, axes = plt.subplots(rows, cols, figsize=(5 * cols, 4 * rows), squeeze=False)
+    style = {"pyvr": "o-", "moderngl": "s--", "vtk-cpu": "^:", "vtk-gpu": "v:"}
+    for ax, res in zip(axes.ravel(), results):
+        for engine, fmt in style.items():
+            for kind in ("sweep", "preset", "target"):
+                pts = sorted((p for p in res["points"] if p["engine"] == engine and p["kind"] == kind),
+                             key=lambda p: p["ms"])
+                if pts:
+                    ax.loglog([p["ms"] for p in pts], [max(p["max"], 1e-3) for p in pts],
+                              fmt if kind != "target" else "*", label=f"{engine} {kind}", markersize=5)
+        ax.set_title(res["scene"])
+        ax.set_xlabel("frame time (ms)")
+        ax.set_ylabel("max error (levels)")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=6)
+    for ax in axes.ravel()[len(results):]:
+        ax.axis("off")
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--frames", type=int, default=2)
+    ap.add_argument("--quick", action="store_true", help="smaller volumes and images (a smoke run)")
+    ap.add_argument("--no-vtk", action="store_true")
+    ap.add_argument("--no-reference", action="store_true")
+    ap.add_argument("--only", help="run only scenes whose name contains this")
+    ap.add_argument("--json", default=out_path("accuracy.json"))
+    ap.add_argument("--plot", default=out_path("accuracy.png"))
+    args = ap.parse_args()
+    use_vtk = not args.no_vtk
+    if use_vtk:
+        try:
+            import vtk  # noqa: F401
+        except ImportError:
+            print("vtk is not installed (pip install vtk): VTK peers skipped")
+            use_vtk = False
+    os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+    t0 = time.perf_counter()
+    chosen = [sc for sc in scenes(args.quick) if not args.only or args.only in sc[0]]
+    runs = []
+    for sc in chosen:
+        print(f"rendering {sc[0]} (ours, reference)...", flush=True)
+        runs.append((sc, *run_scene(sc, args.frames, not args.no_reference)))
+    results = []
+    for sc, res, lut in runs:
+        if use_vtk:
+            run_vtk(sc, lut, res, args.frames)
+        report(res)
+        results.append(res)
+    with open(args.json, "w") as f:
+        json.dump(results, f, indent=1)
+    plot(results, args.plot)
+    print(f"\njson: {os.path.normpath(args.json)}\nplot: {os.path.normpath(args.plot)}\n"
+          f"total {time.perf_counter() - t0:.0f} s")
+
+
+if __name__ == "__main__":
+    main()
