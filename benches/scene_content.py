@@ -3,6 +3,9 @@
 256^3 volumes in [-1, 1]^3, 512x512, balanced preset, isometric camera.
 For each scene, with and without empty-space skipping: median frame time,
 samples actually taken per pixel, and the fraction of empty 8^3 cells.
+Next to them, in the same run: the moderngl/GLSL reference (pyvr's
+semantics, balanced) and VTK's CPU ray caster (vtkFixedPointVolumeRayCastMapper,
+sample distance 0.01) on the same scenes (--no-peers to leave them out).
 Then memory per voxel by input dtype, and the cost of a camera-only
 re-render (bytes uploaded, time) next to the first render.
 
@@ -10,10 +13,16 @@ Run: .venv/bin/python benches/scene_content.py [--size PX] [--volume N] [--frame
 """
 
 import argparse
+import os
+import sys
 import time
 import warnings
 
 import numpy as np
+
+sys.path.insert(0, os.path.dirname(__file__))
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "tests"))
+os.environ.setdefault("PYVR_BACKEND", "vulkan")  # keep wgpu off the EGL contexts of the peers
 
 from pyvr import RenderConfig, VolumeRenderer
 from pyvr.camera import Camera
@@ -53,6 +62,7 @@ def main():
     ap.add_argument("--size", type=int, default=512)
     ap.add_argument("--volume", type=int, default=256)
     ap.add_argument("--frames", type=int, default=3)
+    ap.add_argument("--no-peers", action="store_true")
     args = ap.parse_args()
     px = args.size * args.size
     camera = Camera.isometric_view(distance=3.0)
@@ -60,6 +70,7 @@ def main():
     print(f"{args.volume}^3 volumes, {args.size}x{args.size}, balanced, Light.default() (gradient shading)")
     print(f"{'scene':38s} {'skip':>5s} {'ms':>8s} {'samples/px':>11s} {'empty cells':>12s}")
     dense_ms = None
+    ours = {}
     for name, (data, otf) in scenes(args.volume).items():
         for skip in (False, True):
             r = VolumeRenderer(args.size, args.size, config=RenderConfig.balanced(), light=Light.default())
@@ -70,8 +81,12 @@ def main():
             ms = timed(r, args.frames)
             if name.startswith("dense") and skip:
                 dense_ms = ms
+            if skip:
+                ours[name] = ms
             print(f"{name:38s} {str(skip):>5s} {ms:8.1f} {r.last_frame_stats['samples'] / px:11.1f} "
                   f"{r.empty_fraction():12.2f}")
+    if not args.no_peers:
+        peers(args, camera, ctf, ours)
 
     print("\nmemory per voxel on the GPU (volume texture, plus normals when given):")
     base = create_sample_volume(64, "sphere")
@@ -80,7 +95,7 @@ def main():
         ("uint16", (base * 65535).astype(np.uint16), None),
         ("float32", base, None),
         ("float64 (stored as float32)", base.astype(np.float64), None),
-        ("float32 + normals (RGBA16F)", base, compute_normal_volume(base)),
+        ("float32 + normals (RGBA8 snorm)", base, compute_normal_volume(base)),
     ]:
         r = VolumeRenderer(8, 8)
         r.load_volume(Volume(data, normals))
@@ -105,6 +120,58 @@ def main():
     print(f"camera-only re-render:         {cam_ms:.0f} ms, {r.last_frame_stats['uploaded_bytes']} bytes uploaded")
     if dense_ms:
         print(f"\nempty TF costs {timed_empty(args, camera, ctf) / dense_ms * 100:.2f}% of the dense scene's frame")
+
+
+def peers(args, camera, ctf, ours):
+    """The same scenes on the moderngl reference, then VTK's CPU caster
+    (after: VTK's EGL windows leave their context current)."""
+    from reference.moderngl_reference import ReferenceRenderer
+
+    light = Light.default()
+    cfg = RenderConfig.balanced()
+    rows = {}
+    luts = {}
+    for name, (data, otf) in scenes(args.volume).items():
+        vol = Volume(data, None, *BOX)
+        ref = ReferenceRenderer(vol, ctf, otf, args.size, args.size)
+        ref.render(camera, light, cfg)
+        times = []
+        for _ in range(args.frames):
+            t = time.perf_counter()
+            ref.render(camera, light, cfg)
+            times.append((time.perf_counter() - t) * 1e3)
+        ref.release()
+        rows[name] = [float(np.median(times))]
+        r = VolumeRenderer(8, 8)
+        r.set_transfer_functions(ctf, otf)
+        luts[name] = r._lut
+    try:
+        from peers import VtkPeer
+    except ImportError:
+        VtkPeer = None
+    for name, (data, otf) in scenes(args.volume).items():
+        if VtkPeer is None:
+            rows[name].append(float("nan"))
+            continue
+        try:
+            peer = VtkPeer("cpu", Volume(data, None, *BOX), luts[name], camera, light, (args.size, args.size),
+                           cfg.reference_step_size)
+        except ImportError:
+            rows[name].append(float("nan"))
+            continue
+        peer.render(0.01)
+        times = []
+        for _ in range(args.frames):
+            t = time.perf_counter()
+            peer.render(0.01)
+            times.append((time.perf_counter() - t) * 1e3)
+        peer.release()
+        rows[name].append(float(np.median(times)))
+    print(f"\npeers on the same scenes ({args.size}x{args.size}; ours with skipping, ratio = peer / ours):")
+    print(f"{'scene':38s} {'ours':>8s} {'moderngl':>9s} {'ratio':>6s} {'VTK CPU':>8s} {'ratio':>6s}")
+    for name, (gl, vt) in rows.items():
+        o = ours[name]
+        print(f"{name:38s} {o:8.1f} {gl:9.1f} {gl / o:6.1f} {vt:8.1f} {vt / o:6.1f}")
 
 
 def timed_empty(args, camera, ctf):

@@ -153,13 +153,13 @@ def initial_step(features: Dict[str, float], reference_step: float) -> float:
     return max(h, 1e-4)
 
 
-def config_for_error(renderer, max_error_levels: float = 1.0, pilot: int = 128,
+def config_for_error(renderer, max_error_levels: float = 1.0, pilot: int = 512,
                      base: Optional[RenderConfig] = None, growth: float = 1.25) -> Tuple[RenderConfig, Dict[str, float]]:
     """The cheapest config predicted to keep the frame within
     `max_error_levels` (max premultiplied error, in levels) of the exact image.
 
     The step is predicted on a pilot: the same view at up to `pilot` pixels
-    across, rendered by the engine (its f32 arithmetic is within 0.01 level
+    across (so the frame itself up to 512x512), rendered by the engine (its f32 arithmetic is within 0.01 level
     of the float64 integrator). The pilot's fine image uses a quarter of
     :func:`initial_step` (set by voxel spacing, gradient and TF slope; at
     least a sixteenth of a voxel); steps growing by `growth` are compared
