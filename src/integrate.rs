@@ -29,6 +29,12 @@ pub struct Frame<'a> {
     pub config: RenderConfig,
     pub width: u32,
     pub height: u32,
+    /// 0: each segment is one midpoint sample (the engine's rule). Above 0
+    /// (converged references only): a segment is split in halves, down to
+    /// 2^-24 of a step, while the transfer function varies across the values
+    /// it spans by more than this, in optical depth or emitted colour per
+    /// piece. Steps and peaks of the TF are then located instead of sampled.
+    pub adaptive_tolerance: f64,
 }
 
 /// One ray's result: premultiplied colour and opacity, how many steps the
@@ -210,47 +216,113 @@ fn intensity(frame: &Frame, shading: Shading, p: DVec3, dir: DVec3) -> f64 {
     }
 }
 
-/// Segment `i` of an integrating model: its optical depth `x` and the
-/// premultiplied colour it adds before attenuation by what lies in front;
-/// `None` when it is empty (NaN sample, zero opacity, no length).
-fn segment(frame: &Frame, shading: Shading, ray: &Ray, i: u64) -> Option<(f64, [f64; 3])> {
+/// One piece `[lo, lo + len]` of a ray (offsets from `t0`) by the midpoint
+/// rule: its optical depth and the premultiplied colour it adds before
+/// attenuation by what lies in front; `None` when empty (NaN, zero opacity).
+/// `v` is the value at the midpoint, when already known.
+fn midpoint_piece(frame: &Frame, shading: Shading, ray: &Ray, lo: f64, len: f64, v: Option<f64>) -> Option<(f64, [f64; 3])> {
     let cfg = &frame.config;
-    let (lo, seg) = ray.span(cfg.step_size, i);
-    if seg <= 0.0 {
+    let p = ray.at(lo + 0.5 * len);
+    let v = v.unwrap_or_else(|| value(frame, p));
+    if v.is_nan() {
         return None;
     }
-    let p = ray.at(lo + 0.5 * seg);
-    let pre = cfg.pre_integrated && seg == cfg.step_size;
-    let (x, rgb) = if pre {
-        let (vf, vb) = (value(frame, ray.at(lo)), value(frame, ray.at(lo + seg)));
-        if vf.is_nan() || vb.is_nan() {
-            return None;
-        }
-        // Eight times the table's resolution: the exact ramp integral.
-        let k = preintegrate::substeps_for(frame.lut.len(), vf, vb) * 8;
-        let r = preintegrate::segment(frame.lut, vf, vb, seg / cfg.reference_step_size, cfg.opacity_correction, k);
-        (r[3], [r[0], r[1], r[2]])
-    } else {
-        let v = value(frame, p);
-        if v.is_nan() {
-            return None;
-        }
-        let rgba = eval_lut(frame.lut, v);
-        let x = extinction(rgba[3], cfg.opacity_correction) * (seg / cfg.reference_step_size);
-        let w = match cfg.model {
-            Model::Emission => x,
-            _ => one_minus_exp_neg(x),
-        };
-        (x, [w * rgba[0], w * rgba[1], w * rgba[2]])
-    };
+    let rgba = eval_lut(frame.lut, v);
+    let x = extinction(rgba[3], cfg.opacity_correction) * (len / cfg.reference_step_size);
     if !(x > 0.0) {
         return None;
     }
     if cfg.model == Model::Absorption {
         return Some((x, [0.0; 3]));
     }
+    let w = match cfg.model {
+        Model::Emission => x,
+        _ => one_minus_exp_neg(x),
+    };
     let light = intensity(frame, shading, p, ray.dir);
-    Some((x, rgb.map(|c| c * light)))
+    Some((x, [w * rgba[0] * light, w * rgba[1] * light, w * rgba[2] * light]))
+}
+
+/// How much the transfer function varies over the values in `[a, b]`: the
+/// range of extinction and of emitted colour (extinction times colour) over
+/// the table entries there (values between entries are interpolated, so
+/// they lie within that range).
+fn tf_variation(frame: &Frame, a: f64, b: f64) -> f64 {
+    let lut = frame.lut;
+    let m = lut.len();
+    if m < 2 {
+        return 0.0;
+    }
+    let scale = (m - 1) as f64;
+    let i0 = (a.clamp(0.0, 1.0) * scale).floor() as usize;
+    let i1 = ((b.clamp(0.0, 1.0) * scale).ceil() as usize).min(m - 1);
+    let form = frame.config.opacity_correction;
+    let (mut lo, mut hi) = ([f64::INFINITY; 4], [f64::NEG_INFINITY; 4]);
+    for e in &lut[i0..=i1] {
+        let sigma = extinction(e[3] as f64, form).min(1e30);
+        let q = [sigma, sigma * e[0] as f64, sigma * e[1] as f64, sigma * e[2] as f64];
+        for k in 0..4 {
+            lo[k] = lo[k].min(q[k]);
+            hi[k] = hi[k].max(q[k]);
+        }
+    }
+    (0..4).map(|k| hi[k] - lo[k]).fold(0.0, f64::max)
+}
+
+/// Appends the pieces of `[lo, lo + len]` front to back, halving it where
+/// the TF varies too much across the values it spans (see `Frame`).
+#[allow(clippy::too_many_arguments)]
+fn split(frame: &Frame, shading: Shading, ray: &Ray, lo: f64, len: f64, vf: f64, vb: f64, depth: u32, out: &mut Vec<(f64, [f64; 3])>) {
+    let vm = value(frame, ray.at(lo + 0.5 * len));
+    let vals = [vf, vm, vb];
+    let finite = vals.iter().all(|v| !v.is_nan());
+    let (a, b) = (vals.iter().cloned().fold(f64::INFINITY, f64::min), vals.iter().cloned().fold(f64::NEG_INFINITY, f64::max));
+    let coarse = !finite
+        || depth >= 24
+        || tf_variation(frame, a, b) * (len / frame.config.reference_step_size) <= frame.adaptive_tolerance;
+    if coarse {
+        if let Some(p) = midpoint_piece(frame, shading, ray, lo, len, Some(vm)) {
+            out.push(p);
+        }
+        return;
+    }
+    let half = 0.5 * len;
+    split(frame, shading, ray, lo, half, vf, vm, depth + 1, out);
+    split(frame, shading, ray, lo + half, half, vm, vb, depth + 1, out);
+}
+
+/// Segment `i` of an integrating model as pieces (one, unless adaptive):
+/// each piece's optical depth and the premultiplied colour it adds before
+/// attenuation by what lies in front. Empty pieces are left out.
+fn segment(frame: &Frame, shading: Shading, ray: &Ray, i: u64, out: &mut Vec<(f64, [f64; 3])>) {
+    out.clear();
+    let cfg = &frame.config;
+    let (lo, seg) = ray.span(cfg.step_size, i);
+    if seg <= 0.0 {
+        return;
+    }
+    if cfg.pre_integrated && seg == cfg.step_size {
+        let (vf, vb) = (value(frame, ray.at(lo)), value(frame, ray.at(lo + seg)));
+        if vf.is_nan() || vb.is_nan() {
+            return;
+        }
+        // Eight times the table's resolution: the exact ramp integral.
+        let k = preintegrate::substeps_for(frame.lut.len(), vf, vb) * 8;
+        let r = preintegrate::segment(frame.lut, vf, vb, seg / cfg.reference_step_size, cfg.opacity_correction, k);
+        if r[3] > 0.0 {
+            let light = intensity(frame, shading, ray.at(lo + 0.5 * seg), ray.dir);
+            out.push((r[3], [r[0] * light, r[1] * light, r[2] * light]));
+        }
+        return;
+    }
+    if frame.adaptive_tolerance > 0.0 {
+        let (vf, vb) = (value(frame, ray.at(lo)), value(frame, ray.at(lo + seg)));
+        split(frame, shading, ray, lo, seg, vf, vb, 0, out);
+        return;
+    }
+    if let Some(p) = midpoint_piece(frame, shading, ray, lo, seg, None) {
+        out.push(p);
+    }
 }
 
 fn integrate(frame: &Frame, ray: &Ray) -> RayResult {
@@ -261,42 +333,43 @@ fn integrate(frame: &Frame, ray: &Ray) -> RayResult {
     let mut tau = 0.0f64;
     let mut t = 1.0f64;
     let mut stopped_early = false;
+    let mut pieces = Vec::with_capacity(4);
     if cfg.order == Order::BackToFront {
         // C = c_i + exp(-x_i) C from the far end; no early stop is possible.
         for i in (0..ray.n).rev() {
-            let Some((x, add)) = segment(frame, shading, ray, i) else {
-                continue;
-            };
-            let keep = if model == Model::Emission { 1.0 } else { (-x).exp() };
-            for k in 0..3 {
-                c[k] = add[k] + keep * c[k];
+            segment(frame, shading, ray, i, &mut pieces);
+            for &(x, add) in pieces.iter().rev() {
+                let keep = if model == Model::Emission { 1.0 } else { (-x).exp() };
+                for k in 0..3 {
+                    c[k] = add[k] + keep * c[k];
+                }
+                tau += x;
             }
-            tau += x;
         }
         t = (-tau).exp();
     } else {
-        for i in 0..ray.n {
-            let Some((x, add)) = segment(frame, shading, ray, i) else {
-                continue;
-            };
-            for k in 0..3 {
-                c[k] += t * add[k];
-            }
-            if model == Model::Emission {
-                continue;
-            }
-            // Transmittance from the summed optical depth, as the shader does.
-            tau += x;
-            t = (-tau).exp();
-            if cfg.early_ray_termination && model.terminates_early() && 1.0 - t >= cfg.opacity_threshold {
-                stopped_early = true;
-                break;
-            }
-            // The shader's rule: past this nothing behind can show.
-            if t < 1e-30 {
-                t = 0.0;
-                stopped_early = true;
-                break;
+        'ray: for i in 0..ray.n {
+            segment(frame, shading, ray, i, &mut pieces);
+            for &(x, add) in &pieces {
+                for k in 0..3 {
+                    c[k] += t * add[k];
+                }
+                if model == Model::Emission {
+                    continue;
+                }
+                // Transmittance from the summed optical depth, as the shader does.
+                tau += x;
+                t = (-tau).exp();
+                if cfg.early_ray_termination && model.terminates_early() && 1.0 - t >= cfg.opacity_threshold {
+                    stopped_early = true;
+                    break 'ray;
+                }
+                // The shader's rule: past this nothing behind can show.
+                if t < 1e-30 {
+                    t = 0.0;
+                    stopped_early = true;
+                    break 'ray;
+                }
             }
         }
     }
@@ -482,6 +555,7 @@ mod tests {
             config: cfg,
             width: 1,
             height: 1,
+            adaptive_tolerance: 0.0,
         }
     }
 
@@ -576,6 +650,7 @@ mod tests {
                 config: cfg,
                 width: 1,
                 height: 1,
+                adaptive_tolerance: 0.0,
             };
             integrate_ray(&f, DVec3::new(3.0, 0.0, 0.0), dir).rgba
         };
@@ -589,6 +664,29 @@ mod tests {
             let order = (w[0] / w[1]).log2();
             assert!((1.6..2.5).contains(&order), "observed order {order}, errors {e:?}");
         }
+    }
+
+    #[test]
+    fn adaptive_splitting_locates_a_tf_step() {
+        // A linear ramp v = q along x and a TF that jumps from 0 to a
+        // between v = 0.5 and 0.501: the exact optical depth along the x
+        // axis is a * (1 - 0.501 + 0.001 / 2) / ref. Midpoint sampling at a
+        // coarse step misses where the jump is; splitting finds it.
+        let n = 16;
+        let data: Vec<f32> = (0..n * n * n).map(|idx| ((idx / (n * n)) as f32 + 0.5) / n as f32).collect();
+        let m = 1001;
+        let lut: Vec<[f32; 4]> = (0..m).map(|i| [1.0, 1.0, 1.0, if i > 500 { 0.02 } else { 0.0 }]).collect();
+        let exact_tau = 0.02f32 as f64 * (1.0 - 0.501 + 0.0005) / 0.01;
+        let cfg = RenderConfig { step_size: 0.3, early_ray_termination: false, ..RenderConfig::default() };
+        let mut f = constant_frame(&data[..64], &lut, cfg);
+        f.volume = VolumeView::new([n, n, n], Voxels::F32(&data), None, Bounds::default()).unwrap();
+        let alpha = |f: &Frame| integrate_ray(f, DVec3::new(3.0, 0.0, 0.0), -DVec3::X).rgba[3];
+        let expect = 1.0 - (-exact_tau).exp();
+        let coarse = (alpha(&f) - expect).abs();
+        f.adaptive_tolerance = 1e-7;
+        let fine = (alpha(&f) - expect).abs();
+        assert!(coarse > 1e-2, "{coarse}");
+        assert!(fine < 1e-6, "{fine}");
     }
 
     #[test]

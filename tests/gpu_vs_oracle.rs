@@ -72,6 +72,7 @@ fn base_frame<'a>(vol: VolumeView<'a>, lut: &'a [[f32; 4]]) -> Frame<'a> {
         config: RenderConfig::default(),
         width: 40,
         height: 32,
+        adaptive_tolerance: 0.0,
     }
 }
 

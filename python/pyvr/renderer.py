@@ -239,7 +239,7 @@ class VolumeRenderer:
 
     def render_float64(self, *, config: Optional[RenderConfig] = None, premultiplied: bool = False,
                        origin: str = "lower", order: Optional[str] = None,
-                       size: Optional[tuple] = None) -> np.ndarray:
+                       size: Optional[tuple] = None, adaptive_tolerance: float = 0.0) -> np.ndarray:
         """The same frame from the float64 CPU integrator (the engine's oracle).
 
         Slow (CPU, one thread per core); meant for checking accuracy, e.g.
@@ -249,7 +249,11 @@ class VolumeRenderer:
         "back_to_front", equal without early termination) overrides its order.
         Isosurface hit distances are left in ``last_float64_depth``.
         ``size=(width, height)`` renders the same view at another resolution
-        (e.g. a coarse pilot of the rays).
+        (e.g. a coarse pilot of the rays). ``adaptive_tolerance`` > 0 splits
+        segments in halves (down to 2^-24 of a step) while the transfer
+        function varies across their values by more than it (optical depth
+        or emitted colour per piece): steps and narrow peaks of the TF are
+        located rather than sampled, for converged references.
         """
         if self.volume is None:
             raise RuntimeError("no volume loaded: call load_volume() before render_float64()")
@@ -266,7 +270,7 @@ class VolumeRenderer:
             raise ValueError(f"size must be two positive integers, got {size!r}")
         img, _, depth = _core.integrate_reference(
             prepare_voxels(self.volume.data), prepare_normals(self.volume.normals), *self._bounds, self._lut,
-            camera, self._light_args, cfg, width, height, order,
+            camera, self._light_args, cfg, width, height, order, float(adaptive_tolerance),
         )
         self.last_float64_depth = depth
         if not premultiplied:

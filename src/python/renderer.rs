@@ -275,10 +275,11 @@ pub fn quantize<'py>(py: Python<'py>, rgba: PyReadonlyArray3<'py, f32>, straight
 /// precision. Returns float64 (H, W, 4) premultiplied RGBA (row 0 at the
 /// bottom), the largest step count a truncated ray needed, and float64
 /// (H, W) isosurface hit distances (inf where none or another model).
-/// `order` overrides the config's when given.
+/// `order` overrides the config's when given; `adaptive_tolerance` > 0
+/// splits segments where the transfer function varies (see `Frame`).
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
-#[pyo3(signature = (data, normals, min_bounds, max_bounds, lut, camera, light, config, width, height, order=None))]
+#[pyo3(signature = (data, normals, min_bounds, max_bounds, lut, camera, light, config, width, height, order=None, adaptive_tolerance=0.0))]
 pub fn integrate_reference<'py>(
     py: Python<'py>,
     data: &Bound<'py, PyAny>,
@@ -292,7 +293,11 @@ pub fn integrate_reference<'py>(
     width: u32,
     height: u32,
     order: Option<&str>,
+    adaptive_tolerance: f64,
 ) -> PyResult<(Bound<'py, PyArray3<f64>>, u64, Bound<'py, PyArray2<f64>>)> {
+    if !(adaptive_tolerance >= 0.0 && adaptive_tolerance.is_finite()) {
+        return Err(PyValueError::new_err(format!("adaptive_tolerance must be a finite number >= 0, got {adaptive_tolerance}")));
+    }
     let rows = lut_rows(&lut)?;
     let mut cfg = config.inner;
     if let Some(o) = order {
@@ -302,7 +307,7 @@ pub fn integrate_reference<'py>(
     let camera = camera_from(&camera);
     let light = light_from(&light)?;
     let img = with_volume(data, &normals, min_bounds, max_bounds, |volume| {
-        let frame = Frame { volume, lut: &rows, camera, light, config: cfg, width, height };
+        let frame = Frame { volume, lut: &rows, camera, light, config: cfg, width, height, adaptive_tolerance };
         py.detach(|| integrate::render_image(&frame)).map_err(|e| PyValueError::new_err(e.0))
     })?;
     let flat: Vec<f64> = img.rgba.into_iter().flatten().collect();
