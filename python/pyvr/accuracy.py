@@ -68,7 +68,9 @@ def converged_image(renderer, tolerance: float = 0.1, step: Optional[float] = No
     segments are split adaptively where the TF varies
     (`render_float64(adaptive_tolerance=1e-4)`: a piece ends where the TF
     changes its optical depth or colour by at most 1e-4, so a jump costs
-    under 0.01 level) and the halving goes on.
+    under 0.01 level) and the halving goes on. When the splitting already
+    resolves everything the two steps share their pieces and the estimate
+    reads 0: the bound is then the splitting tolerance, not Richardson's.
     """
     lo, hi = (np.asarray(b, np.float64) for b in renderer._bounds)
     spacing = float(((hi - lo) / np.array(renderer.volume.data.shape[:3])).min())
