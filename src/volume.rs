@@ -134,7 +134,8 @@ impl<'a> VolumeView<'a> {
         lerp(lerp(c00, c01, wj), lerp(c10, c11, wj), wi)
     }
 
-    /// Interpolated supplied normal, re-normalised; `None` if zero or absent.
+    /// Interpolated direction of the supplied normals (each voxel's
+    /// normalised first), re-normalised; `None` if zero or absent.
     pub fn normal(&self, q: DVec3) -> Option<DVec3> {
         let nr = self.normals?;
         let (i0, i1, wi) = Self::axis(q.x, self.dims[0]);
@@ -142,7 +143,8 @@ impl<'a> VolumeView<'a> {
         let (k0, k1, wk) = Self::axis(q.z, self.dims[2]);
         let v = |i, j, k| {
             let b = 3 * self.index(i, j, k);
-            DVec3::new(nr[b] as f64, nr[b + 1] as f64, nr[b + 2] as f64)
+            let u = unit_direction([nr[b], nr[b + 1], nr[b + 2]]);
+            DVec3::new(u[0] as f64, u[1] as f64, u[2] as f64)
         };
         let c00 = v(i0, j0, k0).lerp(v(i0, j0, k1), wk);
         let c01 = v(i0, j1, k0).lerp(v(i0, j1, k1), wk);
@@ -164,6 +166,16 @@ impl<'a> VolumeView<'a> {
         }
         unit_or_none(g)
     }
+}
+
+/// A stored normal's direction: unit length, or zero for zero, NaN or
+/// infinite input (such voxels get no diffuse term).
+pub fn unit_direction(n: [f32; 3]) -> [f32; 3] {
+    let l = (n[0] as f64).hypot(n[1] as f64).hypot(n[2] as f64);
+    if !(l > 0.0 && l.is_finite()) {
+        return [0.0; 3];
+    }
+    [(n[0] as f64 / l) as f32, (n[1] as f64 / l) as f32, (n[2] as f64 / l) as f32]
 }
 
 pub fn unit_or_none(v: DVec3) -> Option<DVec3> {
