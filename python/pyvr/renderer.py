@@ -247,7 +247,8 @@ class VolumeRenderer:
         step_size=1e-4, max_steps=100000, early_ray_termination=False))``.
         ``config`` defaults to the renderer's; ``order`` ("front_to_back" or
         "back_to_front", equal without early termination) overrides its order.
-        Isosurface hit distances are left in ``last_float64_depth``.
+        Isosurface hit distances are left in ``last_float64_depth`` (row 0 at
+        the bottom, inf where none).
         ``size=(width, height)`` renders the same view at another resolution
         (e.g. a coarse pilot of the rays). ``adaptive_tolerance`` > 0 splits
         segments in halves (down to 2^-24 of a step) while the transfer
