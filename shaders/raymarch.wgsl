@@ -469,13 +469,22 @@ fn march_integrate(r: Ray) {
         if (PRE_INTEGRATED && seg == h) {
             var vf: f32;
             var vb: f32;
+            // Branches, not select(): select evaluates (samples) both sides.
             if (BACK_TO_FRONT) {
-                vb = select(value_at(tex_of(point_at(r, lo + h))), carry_v, carry_at == si + 1u);
+                if (carry_at == si + 1u) {
+                    vb = carry_v;
+                } else {
+                    vb = value_at(tex_of(point_at(r, lo + h)));
+                }
                 vf = value_at(tex_of(point_at(r, lo)));
                 carry_at = si;
                 carry_v = vf;
             } else {
-                vf = select(value_at(tex_of(point_at(r, lo))), carry_v, carry_at == si);
+                if (carry_at == si) {
+                    vf = carry_v;
+                } else {
+                    vf = value_at(tex_of(point_at(r, lo)));
+                }
                 vb = value_at(tex_of(point_at(r, lo + h)));
                 carry_at = si + 1u;
                 carry_v = vb;
