@@ -35,5 +35,6 @@ echo "== installing Python packages"
 
 echo "== building pyvr (release)"
 start=$(date +%s)
-.venv/bin/maturin develop --release -q
+# Into this .venv even when another virtual environment is active.
+VIRTUAL_ENV="$PWD/.venv" .venv/bin/maturin develop --release -q
 echo "== build took $(( $(date +%s) - start )) s"
