@@ -222,26 +222,30 @@ fn extinction(a: f32) -> f32 {
     return a;
 }
 
+// The unit direction light travels at p, and the distance back to a point
+// light (3e38 for a directional one); w < 0 where the direction is undefined.
+fn light_travel(p: vec3<f32>) -> vec4<f32> {
+    if (POINT_LIGHT) {
+        let v = p - P.light_pos.xyz;
+        let dl = length(v);
+        if (!(dl > 0.0)) {
+            return vec4<f32>(0.0, 0.0, 0.0, -1.0);
+        }
+        return vec4<f32>(v / dl, dl);
+    }
+    if (P.light_valid == 0u) {
+        return vec4<f32>(0.0, 0.0, 0.0, -1.0);
+    }
+    return vec4<f32>(P.light_dir.xyz, 3.0e38);
+}
+
 fn light_intensity(n: vec3<f32>, p: vec3<f32>) -> f32 {
     let ln = length(n);
-    if (!(ln > 0.0)) {
+    let l = light_travel(p);
+    if (!(ln > 0.0) || l.w < 0.0) {
         return P.ambient;
     }
-    var l: vec3<f32>;
-    if (POINT_LIGHT) {
-        let d = p - P.light_pos.xyz;
-        let dl = length(d);
-        if (!(dl > 0.0)) {
-            return P.ambient;
-        }
-        l = d / dl;
-    } else {
-        if (P.light_valid == 0u) {
-            return P.ambient;
-        }
-        l = P.light_dir.xyz;
-    }
-    return P.ambient + P.diffuse * max(dot(n / ln, l), 0.0);
+    return P.ambient + P.diffuse * max(dot(n / ln, l.xyz), 0.0);
 }
 
 // 64-bit sample count from two words: a carry when the low word wraps.
@@ -318,19 +322,12 @@ fn phase_4pi(cos_theta: f32) -> f32 {
 // shadow step, stopping once its optical depth passes 16). Adds the samples
 // it took to `taken`.
 fn light_transmittance(p: vec3<f32>, taken: ptr<function, u32>) -> f32 {
-    var to_light: vec3<f32>;
-    var reach = 3.0e38;
-    if (POINT_LIGHT) {
-        let v = P.light_pos.xyz - p;
-        let l = length(v);
-        if (!(l > 0.0)) {
-            return 1.0;
-        }
-        to_light = v / l;
-        reach = l;
-    } else {
-        to_light = -P.light_dir.xyz;
+    let travel = light_travel(p);
+    if (travel.w < 0.0) {
+        return 1.0;
     }
+    let to_light = -travel.xyz;
+    let reach = travel.w;
     var exit = 3.0e38;
     for (var a = 0; a < 3; a++) {
         if (to_light[a] > 0.0) {
@@ -369,24 +366,11 @@ fn light_transmittance(p: vec3<f32>, taken: ptr<function, u32>) -> f32 {
 
 // Single scattering: ambient + diffuse * phase * light transmittance.
 fn scatter_intensity(p: vec3<f32>, d: vec3<f32>, taken: ptr<function, u32>) -> f32 {
-    if (SHADING == 0u) {
+    let l = light_travel(p);
+    if (SHADING == 0u || l.w < 0.0) {
         return P.ambient;
     }
-    var l: vec3<f32>;
-    if (POINT_LIGHT) {
-        let v = p - P.light_pos.xyz;
-        let dl = length(v);
-        if (!(dl > 0.0)) {
-            return P.ambient;
-        }
-        l = v / dl;
-    } else {
-        if (P.light_valid == 0u) {
-            return P.ambient;
-        }
-        l = P.light_dir.xyz;
-    }
-    return P.ambient + P.diffuse * phase_4pi(dot(l, -d)) * light_transmittance(p, taken);
+    return P.ambient + P.diffuse * phase_4pi(dot(l.xyz, -d)) * light_transmittance(p, taken);
 }
 
 fn surface_intensity(p: vec3<f32>) -> f32 {
