@@ -22,25 +22,31 @@ COLOR = (0.9, 0.5, 0.2)
 PRESETS = ["preview", "fast", "balanced", "high_quality", "ultra_quality"]
 
 
-def chords(camera, bmin, bmax, width, height):
-    p, up = camera.get_camera_vectors()
-    f = camera.target - p
+def rays(cam, bmin, bmax, w, h):
+    """Per pixel (row 0 at the bottom): origin, unit direction, and the chord's
+    ray parameters t0, t1 through the box (t0 clipped at the eye; nan on a miss)."""
+    p, up = cam.get_camera_vectors()
+    f = cam.target - p
     f = f / np.linalg.norm(f)
-    r = np.cross(f, up)
-    r /= np.linalg.norm(r)
-    u = np.cross(r, f)
-    t = np.tan(camera.fov / 2)
-    xs = 2 * (np.arange(width) + 0.5) / width - 1
-    ys = 2 * (np.arange(height) + 0.5) / height - 1
-    nx, ny = np.meshgrid(xs, ys)
-    d = f + nx[..., None] * (width / height) * t * r + ny[..., None] * t * u
+    rt = np.cross(f, up)
+    rt /= np.linalg.norm(rt)
+    u = np.cross(rt, f)
+    t = np.tan(cam.fov / 2)
+    nx, ny = np.meshgrid(2 * (np.arange(w) + 0.5) / w - 1, 2 * (np.arange(h) + 0.5) / h - 1)
+    d = f + nx[..., None] * (w / h) * t * rt + ny[..., None] * t * u
     d /= np.linalg.norm(d, axis=-1, keepdims=True)
     with np.errstate(divide="ignore", invalid="ignore"):
-        t1 = (bmin - p) / d
-        t2 = (bmax - p) / d
-    tn = np.nanmax(np.minimum(t1, t2), axis=-1)
-    tf = np.nanmin(np.maximum(t1, t2), axis=-1)
-    return np.where(tf > max(tn.min(), 0), np.maximum(tf - np.maximum(tn, 0), 0), 0)
+        ta, tb = (bmin - p) / d, (bmax - p) / d
+    t0 = np.maximum(np.nanmax(np.minimum(ta, tb), axis=-1), 0)
+    t1 = np.nanmin(np.maximum(ta, tb), axis=-1)
+    miss = ~(t1 > t0)
+    return p, d, np.where(miss, np.nan, t0), np.where(miss, np.nan, t1)
+
+
+def chords(camera, bmin, bmax, width, height):
+    """Each pixel's chord length through the box (0 on a miss)."""
+    _, _, t0, t1 = rays(camera, bmin, bmax, width, height)
+    return np.nan_to_num(t1 - t0)
 
 
 def cube_scene(preset):

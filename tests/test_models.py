@@ -22,7 +22,7 @@ from pyvr.lighting import Light
 from pyvr.transferfunctions import ColorTransferFunction, OpacityTransferFunction
 from pyvr.volume import Volume
 from reference.moderngl_reference import render_reference
-from test_closed_form import chords
+from test_closed_form import chords, rays
 
 W, H = 48, 40
 TOL = 1 / 255
@@ -139,26 +139,6 @@ def test_scattering_pays_for_shadow_rays_only_when_lit():
 
 
 # -- projections and the isosurface against numpy and geometry ----------------
-
-def rays(cam, bmin, bmax, w, h):
-    """Per pixel (row 0 at the bottom): origin, unit direction, t0, t1 (nan on a miss)."""
-    p, up = cam.get_camera_vectors()
-    f = cam.target - p
-    f = f / np.linalg.norm(f)
-    rt = np.cross(f, up)
-    rt /= np.linalg.norm(rt)
-    u = np.cross(rt, f)
-    t = np.tan(cam.fov / 2)
-    nx, ny = np.meshgrid(2 * (np.arange(w) + 0.5) / w - 1, 2 * (np.arange(h) + 0.5) / h - 1)
-    d = f + nx[..., None] * (w / h) * t * rt + ny[..., None] * t * u
-    d /= np.linalg.norm(d, axis=-1, keepdims=True)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ta, tb = (bmin - p) / d, (bmax - p) / d
-    t0 = np.maximum(np.nanmax(np.minimum(ta, tb), axis=-1), 0)
-    t1 = np.nanmin(np.maximum(ta, tb), axis=-1)
-    miss = ~(t1 > t0)
-    return p, d, np.where(miss, np.nan, t0), np.where(miss, np.nan, t1)
-
 
 def projection_scene(model):
     rng = np.random.default_rng(5)
