@@ -378,6 +378,8 @@ def test_model_config_fields_validate_and_round_trip():
         RenderConfig(pre_integrated=True, model="mip")
     with pytest.raises(ValueError, match="order"):
         cfg.order = "sideways"
+    with pytest.raises(ValueError, match="jitter_seed"):
+        RenderConfig(jitter_seed=-1)
     with pytest.raises(TypeError, match="no field"):
         cfg.replace(colour=1)
     # pyvr's positional signature is unchanged.

@@ -138,16 +138,17 @@ def scene_features(renderer) -> Dict[str, float]:
     gradient magnitude of the data (per world unit), and the transfer
     function's steepest change of optical depth per reference step and of
     emitted colour, per unit of value (its frequency content)."""
-    data = np.asarray(renderer.volume.data)
-    if data.dtype == np.uint8:
-        data = data / 255.0
-    elif data.dtype == np.uint16:
-        data = data / 65535.0
-    data = np.nan_to_num(np.asarray(data, np.float64), nan=0.0, posinf=1.0, neginf=0.0)
+    raw = np.asarray(renderer.volume.data)
+    scale = {np.dtype(np.uint8): 1 / 255.0, np.dtype(np.uint16): 1 / 65535.0}.get(raw.dtype, 1.0)
+    data = np.nan_to_num(raw.astype(np.float32) * np.float32(scale), nan=0.0, posinf=1.0, neginf=0.0)
     lo, hi = (np.asarray(b, np.float64) for b in renderer._bounds)
     spacing = (hi - lo) / np.array(data.shape)
-    grads = np.gradient(data, *spacing) if min(data.shape) > 1 else [np.zeros_like(data)] * 3
-    g = float(np.sqrt(sum(gi**2 for gi in grads)).max())
+    # One axis at a time in float32: a 256^3 volume needs two extra copies, not six.
+    sq = np.zeros(data.shape, np.float32)
+    for axis, h in enumerate(spacing):
+        if data.shape[axis] > 1:
+            sq += np.gradient(data, h, axis=axis).astype(np.float32) ** 2
+    g = float(np.sqrt(sq.max()))
     lut = np.asarray(renderer._lut, np.float64)
     m = len(lut)
     emitted = lut[:, :3] * lut[:, 3:4]

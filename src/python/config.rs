@@ -46,6 +46,11 @@ pub fn checked(py: Python<'_>, c: &RenderConfig) -> PyResult<()> {
     warn_all(py, &warnings)
 }
 
+/// A jitter seed must fit the shader's 32-bit hash.
+fn seed(v: i64) -> PyResult<u32> {
+    u32::try_from(v).map_err(|_| PyValueError::new_err(format!("jitter_seed must be in [0, 2**32 - 1], got {v}")))
+}
+
 fn value_err(e: crate::config::ConfigError) -> PyErr {
     PyValueError::new_err(e.0)
 }
@@ -75,7 +80,7 @@ impl PyRenderConfig {
         anisotropy: f64,
         shadow_step_size: f64,
         jitter: bool,
-        jitter_seed: u32,
+        jitter_seed: i64,
         pre_integrated: bool,
         order: &str,
     ) -> PyResult<Self> {
@@ -91,7 +96,7 @@ impl PyRenderConfig {
             anisotropy,
             shadow_step_size,
             jitter,
-            jitter_seed,
+            jitter_seed: seed(jitter_seed)?,
             pre_integrated,
             order: Order::parse(order).map_err(value_err)?,
         };
@@ -203,8 +208,9 @@ impl PyRenderConfig {
         self.inner.jitter_seed
     }
     #[setter]
-    fn set_jitter_seed(&mut self, v: u32) {
-        self.inner.jitter_seed = v;
+    fn set_jitter_seed(&mut self, v: i64) -> PyResult<()> {
+        self.inner.jitter_seed = seed(v)?;
+        Ok(())
     }
     /// Integrate each segment from a (front, back) table (emission_absorption only).
     #[getter]

@@ -65,7 +65,8 @@ def load_vti(path: str, array: Optional[str] = None) -> VtiImage:
     Raises ValueError for files this reader does not handle (several pieces,
     vector arrays, raw appended data with a different byte order).
     """
-    text = open(path, "rb").read()
+    with open(path, "rb") as f:
+        text = f.read()
     cut = text.find(b"<AppendedData")
     appended = b""
     raw_appended = False
