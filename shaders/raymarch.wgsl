@@ -21,6 +21,9 @@ override POWER_CORRECTION: bool = false;
 // true: the volume's format is filterable and the sampler interpolates;
 // false: trilinear by hand from textureLoad (R32Float without FLOAT32_FILTERABLE).
 override HW_FILTER: bool = true;
+// true: each volume texel is (value, normal x, y, z) (Rgba16Float), so a lit
+// sample fetches once; `normals` is then a placeholder.
+override NORMALS_IN_VOLUME: bool = false;
 
 // Skip cells of the occupancy grid that the transfer function leaves empty.
 override SKIP_EMPTY: bool = true;
@@ -150,11 +153,16 @@ fn is_nan(v: f32) -> bool {
 }
 
 // Texture coordinates put numpy axis 2 (world z) on the texture's x axis.
-fn value_at(tc: vec3<f32>) -> f32 {
+// The value is .r; with NORMALS_IN_VOLUME the normal is .gba.
+fn volume_texel(tc: vec3<f32>) -> vec4<f32> {
     if (HW_FILTER) {
-        return textureSampleLevel(volume, volume_sampler, tc, 0.0).r;
+        return textureSampleLevel(volume, volume_sampler, tc, 0.0);
     }
-    return trilinear(tc * vec3<f32>(textureDimensions(volume)) - 0.5);
+    return vec4<f32>(trilinear(tc * vec3<f32>(textureDimensions(volume)) - 0.5), 0.0, 0.0, 0.0);
+}
+
+fn value_at(tc: vec3<f32>) -> f32 {
+    return volume_texel(tc).r;
 }
 
 // Cell-centred trilinear interpolation with clamp-to-edge, done by hand so it
@@ -183,6 +191,9 @@ fn trilinear(u: vec3<f32>) -> f32 {
 }
 
 fn supplied_normal(tc: vec3<f32>) -> vec3<f32> {
+    if (NORMALS_IN_VOLUME) {
+        return volume_texel(tc).gba;
+    }
     return textureSampleLevel(normals, linear_sampler, tc, 0.0).xyz;
 }
 
@@ -373,6 +384,14 @@ fn scatter_intensity(p: vec3<f32>, d: vec3<f32>, taken: ptr<function, u32>) -> f
     return P.ambient + P.diffuse * phase_4pi(dot(l.xyz, -d)) * light_transmittance(p, taken);
 }
 
+// surface_intensity where the volume's texel at p is already fetched.
+fn surface_intensity_with(p: vec3<f32>, texel: vec4<f32>) -> f32 {
+    if (SHADING == 1u && NORMALS_IN_VOLUME) {
+        return light_intensity(texel.gba, p);
+    }
+    return surface_intensity(p);
+}
+
 fn surface_intensity(p: vec3<f32>) -> f32 {
     if (SHADING == 1u) {
         return light_intensity(supplied_normal(tex_of(p)), p);
@@ -450,6 +469,9 @@ fn march_integrate(r: Ray) {
         let tc = tex_of(p);
         var x = 0.0;
         var add = vec3<f32>(0.0);
+        // The volume's texel at p, when this segment fetched it.
+        var texel = vec4<f32>(0.0);
+        var have_texel = false;
         if (PRE_INTEGRATED && seg == h) {
             var vf: f32;
             var vb: f32;
@@ -480,7 +502,9 @@ fn march_integrate(r: Ray) {
                 add = e.rgb;
             }
         } else {
-            let v = value_at(tc);
+            texel = volume_texel(tc);
+            have_texel = true;
+            let v = texel.r;
             let valid = !is_nan(v);
             let rgba = eval_lut(select(0.0, v, valid));
             let sigma = extinction(select(0.0, rgba.a, valid));
@@ -520,6 +544,8 @@ fn march_integrate(r: Ray) {
         if (MODEL != 1u && x > 0.0) {
             if (MODEL == 3u) {
                 add *= scatter_intensity(p, r.d, &taken);
+            } else if (SHADING != 0u && have_texel) {
+                add *= surface_intensity_with(p, texel);
             } else if (SHADING != 0u) {
                 add *= surface_intensity(p);
             } else {

@@ -37,6 +37,47 @@ impl Voxels<'_> {
     }
 }
 
+/// How float data is stored on the device; integer data is always stored
+/// exactly (u8 in 1 byte per voxel, u16 in 2).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Precision {
+    /// Exact: 4 bytes per voxel, normals packed in a second texture.
+    #[default]
+    Float32,
+    /// Values rounded to float16 (relative error 2^-11): 2 bytes per voxel,
+    /// or 8 with normals, which then share the value's texel so that a lit
+    /// sample fetches once instead of twice. Needs finite values within
+    /// +-65504, the largest float16.
+    Float16,
+}
+
+/// The largest finite float16.
+pub const F16_MAX: f32 = 65504.0;
+
+impl Precision {
+    pub fn parse(name: &str) -> Result<Precision, VolumeError> {
+        match name {
+            "float32" => Ok(Precision::Float32),
+            "float16" => Ok(Precision::Float16),
+            _ => Err(VolumeError(format!("precision must be 'float32' or 'float16', got {name:?}"))),
+        }
+    }
+
+    /// Checks that float data `values` can be stored at this precision.
+    pub fn check(self, values: &[f32]) -> Result<(), VolumeError> {
+        if self == Precision::Float32 {
+            return Ok(());
+        }
+        match values.iter().find(|v| v.abs() > F16_MAX) {
+            None => Ok(()),
+            Some(v) => Err(VolumeError(format!(
+                "with precision='float16' values must be finite and within +-{F16_MAX} (the largest float16), \
+                 and this volume holds {v}: use precision='float32'"
+            ))),
+        }
+    }
+}
+
 /// Infinite values become a large finite one of the same sign, so that
 /// interpolating next to them never makes `inf * 0 = NaN`; after the transfer
 /// function's clamp they act as the domain's ends. NaN stays NaN (empty).

@@ -76,7 +76,12 @@ class Renderer:
     def __init__(self, width: int, height: int) -> None: ...
     def resize(self, width: int, height: int) -> None: ...
     def set_volume(
-        self, data: npt.NDArray[Any], normals: Optional[npt.NDArray[np.float32]], min_bounds: Vec3, max_bounds: Vec3
+        self,
+        data: npt.NDArray[Any],
+        normals: Optional[npt.NDArray[np.float32]],
+        min_bounds: Vec3,
+        max_bounds: Vec3,
+        precision: str = "float32",
     ) -> None: ...
     def set_lut(self, lut: npt.NDArray[np.float32]) -> None: ...
     def render(

@@ -1,4 +1,5 @@
-//! f32 -> IEEE binary16, round to nearest even (for packed normals).
+//! IEEE binary16 conversions (round to nearest even), for the tables and
+//! volumes stored as 16-bit floats.
 
 pub fn f32_to_f16(x: f32) -> u16 {
     let b = x.to_bits();
@@ -32,9 +33,40 @@ pub fn f32_to_f16(x: f32) -> u16 {
     sign | (base + up as u32) as u16
 }
 
+pub fn f16_to_f32(h: u16) -> f32 {
+    let sign = ((h as u32) & 0x8000) << 16;
+    let exp = ((h >> 10) & 0x1f) as u32;
+    let man = (h & 0x03ff) as u32;
+    let bits = match exp {
+        0 if man == 0 => sign,
+        // Subnormal: man * 2^-24, exact in f32.
+        0 => {
+            let m = man as f32 * (1.0 / 16_777_216.0);
+            return if sign != 0 { -m } else { m };
+        }
+        0x1f => sign | 0x7f80_0000 | (man << 13),
+        _ => sign | ((exp + 127 - 15) << 23) | (man << 13),
+    };
+    f32::from_bits(bits)
+}
+
 #[cfg(test)]
 mod tests {
-    use super::f32_to_f16;
+    use super::{f16_to_f32, f32_to_f16};
+
+    #[test]
+    fn round_trip() {
+        // Every finite half survives f16 -> f32 -> f16.
+        for h in 0..=0xffffu16 {
+            if (h & 0x7c00) == 0x7c00 && (h & 0x03ff) != 0 {
+                assert!(f16_to_f32(h).is_nan());
+                continue;
+            }
+            assert_eq!(f32_to_f16(f16_to_f32(h)), h, "{h:#06x}");
+        }
+        assert_eq!(f16_to_f32(f32_to_f16(0.1)), 0.099_975_586);
+        assert_eq!(f16_to_f32(f32_to_f16(-5.960_464_5e-8)), -5.960_464_5e-8);
+    }
 
     #[test]
     fn known_values() {

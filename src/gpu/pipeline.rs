@@ -13,14 +13,22 @@ use std::sync::Mutex;
 pub const SHADER_SOURCE: &str = include_str!("../../shaders/raymarch.wgsl");
 pub const WORKGROUP: u32 = 8;
 
+/// How the volume is stored, as far as the shader cares.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Layout {
+    /// The sampler filters the volume (its format is filterable).
+    pub hw_filter: bool,
+    /// Each texel holds (value, normal): one fetch per lit sample.
+    pub normals_in_volume: bool,
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Variant {
     pub shading: Shading,
     pub point_light: bool,
     pub early_termination: bool,
     pub correction: OpacityCorrection,
-    /// The sampler filters the volume (its format is filterable).
-    pub hw_filter: bool,
+    pub layout: Layout,
     /// Leap over occupancy cells the transfer function leaves empty.
     pub skip_empty: bool,
     pub model: Model,
@@ -32,7 +40,7 @@ pub struct Variant {
 impl Variant {
     /// The variant a frame needs: only what its model, light and config use.
     /// `skip_empty` says the occupancy grid has empty cells worth skipping.
-    pub fn new(shading: Shading, light: LightKind, cfg: &RenderConfig, hw_filter: bool, skip_empty: bool) -> Self {
+    pub fn new(shading: Shading, light: LightKind, cfg: &RenderConfig, layout: Layout, skip_empty: bool) -> Self {
         let model = cfg.model;
         let shading = match model {
             // Lit or not; scattering reads no normals (see the shader).
@@ -43,7 +51,8 @@ impl Variant {
         let back_to_front = cfg.order == Order::BackToFront && model.integrates() && model != Model::Absorption
             && model != Model::Emission;
         Variant {
-            hw_filter,
+            // Which texture holds the normals only matters where they are read.
+            layout: Layout { normals_in_volume: layout.normals_in_volume && shading == Shading::Normals, ..layout },
             // Pre-integrated segments are not split at cell borders.
             skip_empty: skip_empty && model.skips_cells() && !cfg.pre_integrated,
             shading,
@@ -59,7 +68,7 @@ impl Variant {
         }
     }
 
-    fn constants(&self) -> [(&'static str, f64); 10] {
+    fn constants(&self) -> [(&'static str, f64); 11] {
         let shading = match self.shading {
             Shading::AmbientOnly => 0.0,
             Shading::Normals => 1.0,
@@ -70,7 +79,8 @@ impl Variant {
             ("POINT_LIGHT", self.point_light as u32 as f64),
             ("EARLY_TERMINATION", self.early_termination as u32 as f64),
             ("POWER_CORRECTION", (self.correction == OpacityCorrection::Power) as u32 as f64),
-            ("HW_FILTER", self.hw_filter as u32 as f64),
+            ("HW_FILTER", self.layout.hw_filter as u32 as f64),
+            ("NORMALS_IN_VOLUME", self.layout.normals_in_volume as u32 as f64),
             ("SKIP_EMPTY", self.skip_empty as u32 as f64),
             ("MODEL", self.model.code() as f64),
             ("BACK_TO_FRONT", self.back_to_front as u32 as f64),
@@ -213,7 +223,7 @@ impl Pipelines {
         let p = ctx.scoped("building a ray-marching pipeline", || {
             ctx.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                 label: Some("raymarch"),
-                layout: Some(&self.layouts[v.hw_filter as usize].pipeline),
+                layout: Some(&self.layouts[v.layout.hw_filter as usize].pipeline),
                 module: &self.module,
                 entry_point: Some("main"),
                 compilation_options: wgpu::PipelineCompilationOptions {

@@ -3,14 +3,14 @@
 //! or config change rewrites one 208-byte uniform block and nothing else.
 
 use super::context::{GpuContext, GpuError};
-use super::half::f32_to_f16;
-use super::pipeline::{Pipelines, Variant, WORKGROUP};
+use super::half::{f16_to_f32, f32_to_f16};
+use super::pipeline::{Layout, Pipelines, Variant, WORKGROUP};
 use crate::config::{OpacityCorrection, RenderConfig};
 use crate::model::Model;
 use crate::preintegrate;
 use crate::occupancy::{pyramid, MinMaxGrid};
 use crate::scene::{Bounds, Camera, Light, LightKind, Shading};
-use crate::volume::{sanitize, VolumeView, Voxels};
+use crate::volume::{sanitize, Precision, VolumeView, Voxels};
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
 use std::sync::{Arc, OnceLock};
@@ -60,11 +60,22 @@ fn v4(v: DVec3) -> [f32; 4] {
     [v.x as f32, v.y as f32, v.z as f32, 0.0]
 }
 
+/// Leaping over empty cells makes every sample's loop heavier: it pays only
+/// when enough of the volume is empty. Measured on lavapipe (benchmark scene,
+/// 512^2, step 0.1): with 18.7% of cells empty, the leaps removed 3% of the
+/// samples and made the frame 25% slower.
+const SKIP_MIN_EMPTY: f64 = 0.25;
+
 struct VolumeGpu {
     /// The stored format can be filtered by the sampler.
     filterable: bool,
     view: wgpu::TextureView,
+    /// Normals in their own texture.
     normals: Option<wgpu::TextureView>,
+    /// Normals in the volume's texels: (value, nx, ny, nz), Rgba16Float.
+    normals_in_volume: bool,
+    /// The device's texel format for the values, for reports.
+    format: wgpu::TextureFormat,
     dims: [usize; 3],
     bounds: Bounds,
     bytes: u64,
@@ -301,6 +312,19 @@ impl GpuRenderer {
         self.volume.as_ref().map_or(0, |v| v.bytes)
     }
 
+    /// How the current volume is stored: its texel format, and where the
+    /// normals are ("" without a volume).
+    pub fn volume_storage(&self) -> String {
+        self.volume.as_ref().map_or(String::new(), |v| {
+            let texel = format!("{:?}", v.format).to_lowercase();
+            match (v.normals.is_some(), v.normals_in_volume) {
+                (true, _) => format!("{texel} + rgba8snorm normals"),
+                (false, true) => format!("{texel} (value, normal)"),
+                (false, false) => texel,
+            }
+        })
+    }
+
     pub fn cached_variants(&self) -> usize {
         self.pipelines.cached_variants()
     }
@@ -356,8 +380,14 @@ impl GpuRenderer {
         Ok(())
     }
 
-    /// Uploads a volume (and its normals), replacing the previous one.
+    /// Uploads a volume (and its normals), replacing the previous one, with
+    /// float data stored exactly.
     pub fn set_volume(&mut self, vol: &VolumeView) -> Result<(), GpuError> {
+        self.set_volume_with_precision(vol, Precision::Float32)
+    }
+
+    /// Uploads a volume, storing float data at `precision`.
+    pub fn set_volume_with_precision(&mut self, vol: &VolumeView, precision: Precision) -> Result<(), GpuError> {
         let ctx = self.ctx.clone();
         let max3d = ctx.limits.max_texture_dimension_3d as usize;
         if let Some(&big) = vol.dims.iter().find(|&&d| d > max3d) {
@@ -371,6 +401,10 @@ impl GpuRenderer {
         // numpy's last axis is the fastest: it becomes the texture's x.
         let size = wgpu::Extent3d { width: s2 as u32, height: s1 as u32, depth_or_array_layers: s0 as u32 };
         let unorm16 = ctx.features.contains(wgpu::Features::TEXTURE_FORMAT_16BIT_NORM);
+        if let (Voxels::F32(v), Precision::Float16) = (vol.voxels, precision) {
+            precision.check(v).map_err(|e| GpuError(e.0))?;
+            return self.set_volume_f16(vol, v);
+        }
         let converted: Vec<u8>;
         let (format, bytes, bpp): (wgpu::TextureFormat, &[u8], u32) = match vol.voxels {
             Voxels::U8(v) => (wgpu::TextureFormat::R8Unorm, v, 1),
@@ -423,7 +457,57 @@ impl GpuRenderer {
             }
         };
         let grid = MinMaxGrid::build(vol);
-        self.volume = Some(VolumeGpu { filterable, view, normals, dims: vol.dims, bounds: vol.bounds, bytes: total, grid });
+        self.install_volume(VolumeGpu {
+            filterable,
+            view,
+            normals,
+            normals_in_volume: false,
+            format,
+            dims: vol.dims,
+            bounds: vol.bounds,
+            bytes: total,
+            grid,
+        })
+    }
+
+    /// Float data as float16: R16Float, or with normals one Rgba16Float texel
+    /// (value, normal) per voxel, so that a lit sample fetches once. The
+    /// occupancy grid is built from the rounded values the device reads.
+    fn set_volume_f16(&mut self, vol: &VolumeView, values: &[f32]) -> Result<(), GpuError> {
+        let [s0, s1, s2] = vol.dims;
+        let size = wgpu::Extent3d { width: s2 as u32, height: s1 as u32, depth_or_array_layers: s0 as u32 };
+        let halves: Vec<u16> = values.iter().map(|&v| f32_to_f16(v)).collect();
+        let rounded: Vec<f32> = halves.iter().map(|&h| f16_to_f32(h)).collect();
+        let (format, data) = match vol.normals {
+            None => (wgpu::TextureFormat::R16Float, halves),
+            Some(n) => {
+                let mut texels = Vec::with_capacity(halves.len() * 4);
+                for (&h, c) in halves.iter().zip(n.chunks_exact(3)) {
+                    let u = crate::volume::unit_direction([c[0], c[1], c[2]]);
+                    texels.extend_from_slice(&[h, f32_to_f16(u[0]), f32_to_f16(u[1]), f32_to_f16(u[2])]);
+                }
+                (wgpu::TextureFormat::Rgba16Float, texels)
+            }
+        };
+        let bytes: &[u8] = bytemuck::cast_slice(&data);
+        let view = self.ctx.texture_with_data("uploading the volume", "volume", size, wgpu::TextureDimension::D3, format, 1, bytes)?;
+        let grid = MinMaxGrid::build(&VolumeView { voxels: Voxels::F32(&rounded), ..*vol });
+        self.install_volume(VolumeGpu {
+            filterable: true,
+            view,
+            normals: None,
+            normals_in_volume: vol.normals.is_some(),
+            format,
+            dims: vol.dims,
+            bounds: vol.bounds,
+            bytes: bytes.len() as u64,
+            grid,
+        })
+    }
+
+    fn install_volume(&mut self, volume: VolumeGpu) -> Result<(), GpuError> {
+        let total = volume.bytes;
+        self.volume = Some(volume);
         self.bind_group = None;
         self.occ_source = None;
         if !self.lut_rows.is_empty() {
@@ -583,9 +667,12 @@ impl GpuRenderer {
             self.counters.uploaded_bytes += uploaded;
             return Ok(FrameStats { truncated_needed: 0, uploaded_bytes: uploaded, passes: 0, samples: 0 });
         }
-        let shading = Shading::choose(light, vol.normals.is_some());
-        let hw_filter = vol.filterable && !self.shader_filtering;
-        let variant = Variant::new(shading, light.kind, cfg, hw_filter, self.skip_empty && self.empty_fraction > 0.0);
+        let shading = Shading::choose(light, vol.normals.is_some() || vol.normals_in_volume);
+        // Texels holding normals are only read through the sampler.
+        let hw_filter = vol.filterable && (!self.shader_filtering || vol.normals_in_volume);
+        let layout = Layout { hw_filter, normals_in_volume: vol.normals_in_volume };
+        let skip = self.skip_empty && self.empty_fraction >= SKIP_MIN_EMPTY;
+        let variant = Variant::new(shading, light.kind, cfg, layout, skip);
         // An upper bound on any ray's step count decides how many passes.
         let longest = vol.bounds.max_chord_from(camera.position);
         let max_n = cfg.steps_for_length(longest).saturating_add(2).min(params.max_steps as u64);

@@ -8,7 +8,7 @@ use crate::gpu::renderer::to_u8;
 use crate::gpu::{GpuError, GpuRenderer};
 use crate::integrate::{self, Frame};
 use crate::scene::{Bounds, Camera, Light, LightKind};
-use crate::volume::{VolumeView, Voxels};
+use crate::volume::{Precision, VolumeView, Voxels};
 use glam::DVec3;
 use numpy::{PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray2, PyReadonlyArray3, PyReadonlyArray4, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyValueError};
@@ -163,8 +163,9 @@ impl PyRenderer {
         self.inner.size().1
     }
 
-    /// Uploads a volume; data is float32, uint8 or uint16, C-contiguous.
-    #[pyo3(signature = (data, normals, min_bounds, max_bounds))]
+    /// Uploads a volume; data is float32, uint8 or uint16, C-contiguous;
+    /// precision is 'float32' or 'float16' (float data only).
+    #[pyo3(signature = (data, normals, min_bounds, max_bounds, precision = "float32"))]
     fn set_volume(
         &mut self,
         py: Python<'_>,
@@ -172,10 +173,12 @@ impl PyRenderer {
         normals: Option<PyReadonlyArray4<'_, f32>>,
         min_bounds: Vec3,
         max_bounds: Vec3,
+        precision: &str,
     ) -> PyResult<()> {
+        let precision = Precision::parse(precision).map_err(|e| PyValueError::new_err(e.0))?;
         let inner = &mut self.inner;
         with_volume(data, &normals, min_bounds, max_bounds, |view| {
-            py.detach(|| inner.set_volume(&view)).map_err(gpu_err)
+            py.detach(|| inner.set_volume_with_precision(&view, precision)).map_err(gpu_err)
         })
     }
 
@@ -211,7 +214,8 @@ impl PyRenderer {
     }
 
     /// Life-time counters: frames, volume_uploads, lut_uploads, uploaded_bytes,
-    /// volume_bytes (resident), pipeline_variants (compiled so far).
+    /// volume_bytes (resident), volume_storage (texel format), pipeline_variants
+    /// (compiled so far).
     fn counters<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let c = self.inner.counters;
         let d = PyDict::new(py);
@@ -220,6 +224,7 @@ impl PyRenderer {
         d.set_item("lut_uploads", c.lut_uploads)?;
         d.set_item("uploaded_bytes", c.uploaded_bytes)?;
         d.set_item("volume_bytes", self.inner.volume_bytes())?;
+        d.set_item("volume_storage", self.inner.volume_storage())?;
         d.set_item("pipeline_variants", self.inner.cached_variants())?;
         Ok(d)
     }

@@ -1,0 +1,110 @@
+"""Float volumes stored as float16 (load_volume(..., precision="float16")):
+the device reads exactly the float16-rounded values, in 2 bytes per voxel or
+8 with normals in the same texel; bad requests are clear errors."""
+
+import numpy as np
+import pytest
+
+from pyvr import RenderConfig, VolumeRenderer
+from pyvr.camera import Camera
+from pyvr.datasets import compute_normal_volume, create_sample_volume
+from pyvr.lighting import Light
+from pyvr.transferfunctions import ColorTransferFunction, OpacityTransferFunction
+from pyvr.volume import Volume
+
+LEVEL = 1 / 255
+
+
+def renderer(vol, precision="float32", light=None, otf=None, skip=True, size=(48, 40)):
+    r = VolumeRenderer(*size, config=RenderConfig.balanced(), light=light or Light.default())
+    r.empty_space_skipping = skip
+    r.load_volume(vol, precision=precision)
+    r.set_camera(Camera.isometric_view(distance=2.6))
+    r.set_transfer_functions(ColorTransferFunction.from_colormap("plasma"),
+                             otf or OpacityTransferFunction.linear(0.0, 0.4))
+    return r
+
+
+def image(r):
+    return r.render(dtype=np.float32, premultiplied=True)
+
+
+def lit_scene(n=48):
+    d = create_sample_volume(n, "double_sphere")
+    return d, compute_normal_volume(d)
+
+
+def test_storage_and_bytes_per_voxel():
+    d, nrm = lit_scene(16)
+    cases = [
+        (Volume(d), "float32", "r32float", 4),
+        (Volume(d, nrm), "float32", "r32float + rgba8snorm normals", 8),
+        (Volume(d), "float16", "r16float", 2),
+        (Volume(d, nrm), "float16", "rgba16float (value, normal)", 8),
+        # Integer data is stored exactly whatever the precision.
+        (Volume(np.round(d * 255).astype(np.uint8)), "float16", "r8unorm", 1),
+    ]
+    for vol, precision, storage, bpv in cases:
+        c = renderer(vol, precision).counters()
+        assert (c["volume_storage"], c["volume_bytes"]) == (storage, bpv * d.size), (precision, storage)
+
+
+@pytest.mark.parametrize("lit", [False, True])
+def test_float16_reads_exactly_the_rounded_values(lit):
+    # The float16 frame equals a float32 frame of the rounded data: the only
+    # other difference is the normals' precision (float16 vs 1/127), measured
+    # at 0.08 level at most here.
+    d, nrm = lit_scene()
+    d[5:9, 20:30, 20:30] = np.nan
+    rounded = d.astype(np.float16).astype(np.float32)
+    light = Light.default() if lit else Light.ambient_only(1.0)
+    half = image(renderer(Volume(d, nrm if lit else None), "float16", light))
+    ref = image(renderer(Volume(rounded, nrm if lit else None), "float32", light))
+    assert half[..., 3].max() > 0.5
+    tol = 0.25 if lit else 0.02
+    assert np.abs(half - ref).max() < tol * LEVEL
+    # And the rounding itself is small against the exact data (measured: at
+    # most 0.08 level; longer, denser rays reach 2, see README).
+    exact = image(renderer(Volume(d, nrm if lit else None), "float32", light))
+    err = np.abs(half - exact) / LEVEL
+    assert err.max() < 0.5 and err.mean() < 0.01, (err.max(), err.mean())
+
+
+def test_float16_skipping_matches_unskipped():
+    # The occupancy grid is built from the rounded values the device reads.
+    d = create_sample_volume(64, "helix")
+    d = d.astype(np.float32)
+    otf = OpacityTransferFunction.one_step(0.5, 0.0, 0.6)
+    plain = renderer(Volume(d, compute_normal_volume(d)), "float16", otf=otf, skip=False)
+    skip = renderer(Volume(d, compute_normal_volume(d)), "float16", otf=otf, skip=True)
+    a, b = image(plain), image(skip)
+    assert skip.empty_fraction() > 0.5
+    assert skip.last_frame_stats["samples"] < 0.8 * plain.last_frame_stats["samples"]
+    assert np.abs(a - b).max() < LEVEL and a[..., 3].max() > 0.3
+
+
+def test_camera_only_rerender_uploads_nothing_with_float16():
+    d, nrm = lit_scene(24)
+    r = renderer(Volume(d, nrm), "float16")
+    r.render()
+    r.set_camera(Camera.front_view(distance=3.0))
+    r.render()
+    assert r.counters()["volume_uploads"] == 1 and r.last_frame_stats["uploaded_bytes"] < 512
+
+
+@pytest.mark.parametrize("value", [1e5, -7e4, np.inf])
+def test_float16_refuses_values_it_cannot_hold(value):
+    d, _ = lit_scene(8)
+    d[1, 2, 3] = value
+    copy = d.copy()
+    r = VolumeRenderer(8, 8)
+    with pytest.raises(ValueError, match="65504"):
+        r.load_volume(Volume(d), precision="float16")
+    assert np.array_equal(d, copy)
+    r.load_volume(Volume(d), precision="float32")  # exact storage takes it
+
+
+@pytest.mark.parametrize("bad", ["float64", "auto", "", 16])
+def test_unknown_precision_is_a_value_error(bad):
+    with pytest.raises(ValueError, match="float32"):
+        VolumeRenderer(8, 8).load_volume(Volume(create_sample_volume(8)), precision=bad)
