@@ -8,7 +8,8 @@ present, a torus under a TF of narrow peaks (high frequency), and an
 anisotropic non-cubic volume; all but the first at 256x256.
 
 Engines: ours at each preset, at a sweep of steps (no early termination)
-and at error-targeted configs (targets 1 and 4 levels); the moderngl/GLSL
+and at error-targeted configs (targets 1 and 4 levels), and for volumes with
+normals the presets and sweep again with float16 storage (pyvr-f16); the moderngl/GLSL
 reference (pyvr's semantics) at each preset; VTK's CPU
 (vtkFixedPointVolumeRayCastMapper) and GPU (vtkGPUVolumeRayCastMapper) ray
 casters from the `vtk` wheel, headless through EGL, at a sweep of sample
@@ -53,7 +54,7 @@ from pyvr.volume import Volume  # noqa: E402
 FUEL = os.path.join(os.path.dirname(__file__), "..", "..", "shared", "data", "fuel.vti")
 BOX = (np.full(3, -1.0, np.float32), np.full(3, 1.0, np.float32))
 PRESETS = ["preview", "fast", "balanced", "high_quality", "ultra_quality"]
-SWEEP = [0.0025, 0.005, 0.007, 0.01, 0.014, 0.02, 0.028, 0.04, 0.057, 0.08, 0.16]
+SWEEP = [0.0025, 0.005, 0.007, 0.01, 0.014, 0.02, 0.028, 0.04, 0.057, 0.08, 0.113, 0.16]
 VTK_SWEEP = [0.01, 0.02, 0.04, 0.08]
 TARGETS = [1.0, 4.0]
 
@@ -115,22 +116,27 @@ def run_scene(scene, frames, use_reference):
     conv, info = accuracy.converged_image(r, tolerance=0.1)
     res = {"scene": name, "pixels": px, "converged": {**info, "seconds": time.perf_counter() - t}, "points": []}
 
-    def ours(label, cfg, kind):
+    def ours(label, cfg, kind, engine="pyvr"):
         r.set_config(cfg)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             img, ms = timed(lambda: r.render(dtype=np.float32, premultiplied=True), frames)
         samples = r.last_frame_stats["samples"]
-        res["points"].append({"engine": "pyvr", "kind": kind, "label": label, "step": cfg.step_size, "ms": ms,
+        res["points"].append({"engine": engine, "kind": kind, "label": label, "step": cfg.step_size, "ms": ms,
                               "samples_per_s": samples / ms * 1e3, **accuracy.error_metrics(img, conv)})
+
+    def sweep(engine="pyvr"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            for h in SWEEP:
+                ours(f"step {h}", RenderConfig(step_size=h, max_steps=int(3.5 / h) + 2, early_ray_termination=False),
+                     "sweep", engine)
 
     for p in PRESETS:
         ours(p, getattr(RenderConfig, p)(), "preset")
+    sweep()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        for h in SWEEP:
-            ours(f"step {h}", RenderConfig(step_size=h, max_steps=int(3.5 / h) + 2, early_ray_termination=False),
-                 "sweep")
         r.set_config(RenderConfig.balanced())
         for target in TARGETS:
             t = time.perf_counter()
@@ -150,6 +156,14 @@ def run_scene(scene, frames, use_reference):
             chosen["cheapest_step_found"] = cheapest
             chosen["cost_vs_cheapest"] = cheapest / cfg.step_size
             chosen["cost_vs_cheapest_bound"] = min(2**1.5, 2**0.5 * cheapest / cfg.step_size)
+
+    if vol.normals is not None and vol.data.dtype == np.float32:
+        # The same sweep with the values (and normals) in one float16 texel.
+        r.load_volume(vol, precision="float16")
+        for p in PRESETS:
+            ours(p, getattr(RenderConfig, p)(), "preset", "pyvr-f16")
+        sweep("pyvr-f16")
+        r.load_volume(vol)
 
     if use_reference:
         from reference.moderngl_reference import ReferenceRenderer
@@ -186,7 +200,7 @@ def run_vtk(scene, lut, res, frames):
 
 
 def cheapest_at(points, max_error):
-    ok = [p for p in points if p["engine"] == "pyvr" and p["max"] <= max_error]
+    ok = [p for p in points if p["engine"].startswith("pyvr") and p["max"] <= max_error]
     return min(ok, key=lambda p: p["ms"]) if ok else None
 
 
@@ -199,7 +213,8 @@ def report(res):
         if p["kind"] == "probe":
             continue
         best = cheapest_at(res["points"], p["max"])
-        vs = f"{p['ms'] / best['ms']:6.1f}x ({best['label']})" if best and p["engine"] != "pyvr" else ""
+        vs = (f"{p['ms'] / best['ms']:6.1f}x ({best['engine']} {best['label']})"
+              if best and not p["engine"].startswith("pyvr") else "")
         if "target" in p:
             ok = "met" if p["max"] <= p["target"] else "MISSED"
             vs = (f"{ok}; costs {p['cost_vs_cheapest']:.2f}-{p['cost_vs_cheapest_bound']:.2f}x the cheapest step "
@@ -217,7 +232,7 @@ def plot(results, path):
     cols = 3
     rows = (len(results) + cols - 1) // cols
     fig, axes = plt.subplots(rows, cols, figsize=(5 * cols, 4 * rows), squeeze=False)
-    style = {"pyvr": "o-", "moderngl": "s--", "vtk-cpu": "^:", "vtk-gpu": "v:"}
+    style = {"pyvr": "o-", "pyvr-f16": "o-.", "moderngl": "s--", "vtk-cpu": "^:", "vtk-gpu": "v:"}
     for ax, res in zip(axes.ravel(), results):
         for engine, fmt in style.items():
             for kind in ("sweep", "preset", "target"):

@@ -2,7 +2,7 @@
 //! (`pipeline`), and the per-renderer resources and frame (`renderer`).
 
 pub mod context;
-mod half;
+pub mod half;
 pub mod pipeline;
 pub mod renderer;
 
