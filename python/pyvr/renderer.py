@@ -111,11 +111,11 @@ class VolumeRenderer:
           2**-11; values in [0, 1] move by at most 2**-12, a sixteenth of a
           256-entry table's spacing). 2 bytes per voxel, or 8 with normals,
           which then share the value's texel: a lit sample fetches once
-          instead of twice, and the lit benchmark scene renders about 1.4x
+          instead of twice, and the lit benchmark scene renders 1.4-1.7x
           faster. Values must be finite and within +-65504. The rounding is
           the same in every voxel of a smooth region, so along long dense
-          rays it can add up: measured up to 2 levels against the float32
-          image (README, "Limits and numerics").
+          rays it can add up: measured up to 2.1 levels against the exact
+          data's image (README, "Limits and numerics").
 
         ``counters()["volume_storage"]`` names the stored format.
         """
