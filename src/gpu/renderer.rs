@@ -477,7 +477,12 @@ impl GpuRenderer {
         let [s0, s1, s2] = vol.dims;
         let size = wgpu::Extent3d { width: s2 as u32, height: s1 as u32, depth_or_array_layers: s0 as u32 };
         let halves: Vec<u16> = values.iter().map(|&v| f32_to_f16(v)).collect();
-        let rounded: Vec<f32> = halves.iter().map(|&h| f16_to_f32(h)).collect();
+        // Built before the texels so that the rounded copy is freed first
+        // (a 512^3 volume's texels alone take 1 GB).
+        let grid = {
+            let rounded: Vec<f32> = halves.iter().map(|&h| f16_to_f32(h)).collect();
+            MinMaxGrid::build(&VolumeView { voxels: Voxels::F32(&rounded), ..*vol })
+        };
         let (format, data) = match vol.normals {
             None => (wgpu::TextureFormat::R16Float, halves),
             Some(n) => {
@@ -491,7 +496,6 @@ impl GpuRenderer {
         };
         let bytes: &[u8] = bytemuck::cast_slice(&data);
         let view = self.ctx.texture_with_data("uploading the volume", "volume", size, wgpu::TextureDimension::D3, format, 1, bytes)?;
-        let grid = MinMaxGrid::build(&VolumeView { voxels: Voxels::F32(&rounded), ..*vol });
         self.install_volume(VolumeGpu {
             filterable: true,
             view,
