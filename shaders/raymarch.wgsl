@@ -67,6 +67,12 @@ struct Params {
     jitter_seed: u32,
     // (iso_value, Henyey–Greenstein g, shadow step, pre-integration table side)
     model_params: vec4<f32>,
+    // (scale, offset, -, -): sampled value -> transfer-function domain
+    // (a value range in data units; identity by default).
+    value_map: vec4<f32>,
+    // The box rays march in (a crop, or [0, extent]), same frame as positions.
+    clip_lo: vec4<f32>,
+    clip_hi: vec4<f32>,
 };
 
 @group(0) @binding(0) var<uniform> P: Params;
@@ -161,7 +167,17 @@ fn volume_texel(tc: vec3<f32>) -> vec4<f32> {
     return vec4<f32>(trilinear(tc * vec3<f32>(textureDimensions(volume)) - 0.5), 0.0, 0.0, 0.0);
 }
 
+// The sampled value as the transfer function (and the iso value) sees it.
+fn tf_value(raw: f32) -> f32 {
+    return raw * P.value_map.x + P.value_map.y;
+}
+
 fn value_at(tc: vec3<f32>) -> f32 {
+    return tf_value(volume_texel(tc).r);
+}
+
+// Unmapped, for gradients: the map's positive scale leaves their direction alone.
+fn raw_value_at(tc: vec3<f32>) -> f32 {
     return volume_texel(tc).r;
 }
 
@@ -200,9 +216,9 @@ fn supplied_normal(tc: vec3<f32>) -> vec3<f32> {
 // Central differences one voxel apart, in world units; texture axes are (z, y, x).
 fn gradient(tc: vec3<f32>) -> vec3<f32> {
     let h = 1.0 / vec3<f32>(textureDimensions(volume));
-    let gx = value_at(tc + vec3<f32>(0.0, 0.0, h.z)) - value_at(tc - vec3<f32>(0.0, 0.0, h.z));
-    let gy = value_at(tc + vec3<f32>(0.0, h.y, 0.0)) - value_at(tc - vec3<f32>(0.0, h.y, 0.0));
-    let gz = value_at(tc + vec3<f32>(h.x, 0.0, 0.0)) - value_at(tc - vec3<f32>(h.x, 0.0, 0.0));
+    let gx = raw_value_at(tc + vec3<f32>(0.0, 0.0, h.z)) - raw_value_at(tc - vec3<f32>(0.0, 0.0, h.z));
+    let gy = raw_value_at(tc + vec3<f32>(0.0, h.y, 0.0)) - raw_value_at(tc - vec3<f32>(0.0, h.y, 0.0));
+    let gz = raw_value_at(tc + vec3<f32>(h.x, 0.0, 0.0)) - raw_value_at(tc - vec3<f32>(h.x, 0.0, 0.0));
     return vec3<f32>(gx, gy, gz) * P.inv_two_spacing.xyz;
 }
 
@@ -329,7 +345,7 @@ fn phase_4pi(cos_theta: f32) -> f32 {
     return (1.0 - g * g) / (denom * sqrt(denom));
 }
 
-// Light reaching p through the volume along the shadow ray (midpoint rule,
+// Light reaching p through the (cropped) volume along the shadow ray (midpoint rule,
 // shadow step, stopping once its optical depth passes 16). Adds the samples
 // it took to `taken`.
 fn light_transmittance(p: vec3<f32>, taken: ptr<function, u32>) -> f32 {
@@ -342,9 +358,9 @@ fn light_transmittance(p: vec3<f32>, taken: ptr<function, u32>) -> f32 {
     var exit = 3.0e38;
     for (var a = 0; a < 3; a++) {
         if (to_light[a] > 0.0) {
-            exit = min(exit, (P.extent[a] - p[a]) / to_light[a]);
+            exit = min(exit, (P.clip_hi[a] - p[a]) / to_light[a]);
         } else if (to_light[a] < 0.0) {
-            exit = min(exit, -p[a] / to_light[a]);
+            exit = min(exit, (P.clip_lo[a] - p[a]) / to_light[a]);
         }
     }
     let len = max(min(exit, reach), 0.0);
@@ -504,7 +520,7 @@ fn march_integrate(r: Ray) {
         } else {
             texel = volume_texel(tc);
             have_texel = true;
-            let v = texel.r;
+            let v = tf_value(texel.r);
             let valid = !is_nan(v);
             let rgba = eval_lut(select(0.0, v, valid));
             let sigma = extinction(select(0.0, rgba.a, valid));
@@ -797,13 +813,13 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     var hit = true;
     for (var a = 0; a < 3; a++) {
         if (d[a] == 0.0) {
-            if (o[a] < 0.0 || o[a] > ext[a]) {
+            if (o[a] < P.clip_lo[a] || o[a] > P.clip_hi[a]) {
                 hit = false;
             }
         } else {
             let inv = 1.0 / d[a];
-            let ta = (0.0 - o[a]) * inv;
-            let tb = (ext[a] - o[a]) * inv;
+            let ta = (P.clip_lo[a] - o[a]) * inv;
+            let tb = (P.clip_hi[a] - o[a]) * inv;
             t0 = max(t0, min(ta, tb));
             t1 = min(t1, max(ta, tb));
         }

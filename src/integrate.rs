@@ -14,7 +14,8 @@ use crate::model::{jitter_shift, phase_4pi, Model};
 pub use crate::model::Order;
 use crate::preintegrate;
 use crate::scene::{Camera, Light, Shading};
-use crate::transfer::eval_lut;
+use crate::scene::Bounds;
+use crate::transfer::{eval_lut, ValueMap};
 use crate::volume::VolumeView;
 use glam::DVec3;
 
@@ -35,6 +36,10 @@ pub struct Frame<'a> {
     /// it spans by more than this, in optical depth or emitted colour per
     /// piece. Steps and peaks of the TF are then located instead of sampled.
     pub adaptive_tolerance: f64,
+    /// Sampled value -> transfer-function domain (a value range in data units).
+    pub value_map: ValueMap,
+    /// Rays march only inside this box (a crop of the volume's), if given.
+    pub clip: Option<Bounds>,
 }
 
 /// One ray's result: premultiplied colour and opacity, how many steps the
@@ -119,7 +124,7 @@ struct Ray {
 
 impl Ray {
     fn new(frame: &Frame, origin: DVec3, dir: DVec3, shift: f64) -> Option<Ray> {
-        let (t0, t1) = frame.volume.bounds.intersect(origin, dir)?;
+        let (t0, t1) = marched_box(frame)?.intersect(origin, dir)?;
         let needed = segments_needed(t1 - t0, frame.config.step_size, shift);
         let n = needed.min(frame.config.max_steps.max(0) as u64);
         Some(Ray { origin, dir, t0, t1, shift, n, needed })
@@ -145,13 +150,24 @@ impl Ray {
     }
 }
 
+/// The box rays march in: the volume's, cropped by the clip box if any
+/// (None when the crop misses the volume). Shadow rays stop at it too.
+fn marched_box(frame: &Frame) -> Option<Bounds> {
+    match frame.clip {
+        Some(c) => frame.volume.bounds.intersection(&c),
+        None => Some(frame.volume.bounds),
+    }
+}
+
+/// The value the transfer function sees at `p` (gradients use the raw field:
+/// the map's positive scale leaves their direction unchanged).
 fn value(frame: &Frame, p: DVec3) -> f64 {
-    frame.volume.sample(frame.volume.bounds.to_unit(p))
+    frame.value_map.apply(frame.volume.sample(frame.volume.bounds.to_unit(p)))
 }
 
 /// Light that reaches `p` from the light source through the volume:
 /// `exp(-∫ σ ds / ref)` along the shadow ray, midpoint rule with the
-/// shadow step, up to the box exit (or the point light, if nearer).
+/// shadow step, up to the (cropped) box exit (or the point light, if nearer).
 pub fn light_transmittance(frame: &Frame, p: DVec3) -> f64 {
     let light = &frame.light;
     let Some(travel) = light.direction_at(p) else {
@@ -162,7 +178,7 @@ pub fn light_transmittance(frame: &Frame, p: DVec3) -> f64 {
     if light.kind == crate::scene::LightKind::Point {
         reach = (light.position - p).length();
     }
-    let Some((_, exit)) = frame.volume.bounds.intersect(p, to_light) else {
+    let Some((_, exit)) = marched_box(frame).and_then(|b| b.intersect(p, to_light)) else {
         return 1.0;
     };
     let len = exit.min(reach);
@@ -556,6 +572,8 @@ mod tests {
             width: 1,
             height: 1,
             adaptive_tolerance: 0.0,
+            value_map: ValueMap::IDENTITY,
+            clip: None,
         }
     }
 
@@ -651,6 +669,8 @@ mod tests {
                 width: 1,
                 height: 1,
                 adaptive_tolerance: 0.0,
+                value_map: ValueMap::IDENTITY,
+                clip: None,
             };
             integrate_ray(&f, DVec3::new(3.0, 0.0, 0.0), dir).rgba
         };

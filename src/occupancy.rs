@@ -8,6 +8,7 @@
 //! range is at an entry inside it or at its ends). Skipping such cells only
 //! removes samples whose opacity is exactly 0: images are unchanged.
 
+use crate::transfer::ValueMap;
 use crate::volume::VolumeView;
 
 pub const BLOCK: usize = 8;
@@ -56,17 +57,19 @@ impl MinMaxGrid {
     /// 1 for cells where the interpolated value can reach `iso` (the
     /// isosurface model's first hit can only lie there), 0 elsewhere. The
     /// margin covers f32 interpolation rounding past a cell's maximum.
-    pub fn occupancy_reaching(&self, iso: f64) -> Vec<u8> {
+    /// `iso` is in the transfer function's domain, which `map` takes values to.
+    pub fn occupancy_reaching(&self, iso: f64, map: ValueMap) -> Vec<u8> {
         let margin = 1e-6 * iso.abs().max(1.0);
         self.min
             .iter()
             .zip(&self.max)
-            .map(|(&lo, &hi)| (lo <= hi && hi as f64 >= iso - margin) as u8)
+            .map(|(&lo, &hi)| (lo <= hi && map.apply(hi as f64) >= iso - margin) as u8)
             .collect()
     }
 
     /// 1 for cells the table can make visible, 0 for empty ones.
-    pub fn occupancy(&self, lut: &[[f32; 4]]) -> Vec<u8> {
+    /// The table is indexed by mapped values (`map`: sample -> [0, 1]).
+    pub fn occupancy(&self, lut: &[[f32; 4]], map: ValueMap) -> Vec<u8> {
         let m = lut.len();
         if m == 0 {
             return vec![0; self.min.len()];
@@ -78,7 +81,7 @@ impl MinMaxGrid {
             let last = *nonzero.last().unwrap_or(&0);
             nonzero.push(last + (e[3] > 0.0) as u32);
         }
-        let scale = (m - 1) as f32;
+        let scale = (m - 1) as f64;
         self.min
             .iter()
             .zip(&self.max)
@@ -86,8 +89,12 @@ impl MinMaxGrid {
                 if lo > hi {
                     return 0; // only NaN voxels
                 }
-                let i0 = (lo.clamp(0.0, 1.0) * scale).floor() as usize;
-                let i1 = ((hi.clamp(0.0, 1.0) * scale).ceil() as usize).min(m - 1);
+                // The device maps in f32: widen a mapped range by a rounding
+                // margin (an identity map is exact, as it always was).
+                let pad = if map == ValueMap::IDENTITY { 0.0 } else { 1e-3 };
+                let (lo, hi) = (map.apply(lo as f64), map.apply(hi as f64));
+                let i0 = (lo.clamp(0.0, 1.0) * scale - pad).max(0.0).floor() as usize;
+                let i1 = ((hi.clamp(0.0, 1.0) * scale + pad).ceil() as usize).min(m - 1);
                 (nonzero[i1 + 1] > nonzero[i0]) as u8
             })
             .collect()
@@ -169,12 +176,35 @@ mod tests {
         g.min = vec![0.1, 0.8];
         g.max = vec![0.1, 0.8];
         let step: Vec<[f32; 4]> = (0..11).map(|i| [1.0, 1.0, 1.0, if i >= 5 { 1.0 } else { 0.0 }]).collect();
-        assert_eq!(g.occupancy(&step), vec![0, 1]);
+        assert_eq!(g.occupancy(&step, ValueMap::IDENTITY), vec![0, 1]);
         let empty = vec![[1.0f32, 1.0, 1.0, 0.0]; 11];
-        assert_eq!(g.occupancy(&empty), vec![0, 0]);
+        assert_eq!(g.occupancy(&empty, ValueMap::IDENTITY), vec![0, 0]);
         // A range straddling an entry with opacity counts as occupied.
         g.min = vec![0.41, 0.0];
         g.max = vec![0.42, 0.0];
-        assert_eq!(g.occupancy(&step), vec![1, 0]);
+        assert_eq!(g.occupancy(&step, ValueMap::IDENTITY), vec![1, 0]);
+    }
+
+    #[test]
+    fn occupancy_maps_values_to_the_table() {
+        let data = vec![0.0f32; 8];
+        let v = VolumeView::new([1, 1, 8], Voxels::F32(&data), None, Bounds::default()).unwrap();
+        let mut g = MinMaxGrid::build(&v);
+        // Two cells in data units (e.g. Hounsfield): air and tissue.
+        g.min = vec![-1000.0, 200.0];
+        g.max = vec![-900.0, 560.0];
+        g.dims = [1, 1, 2];
+        // Opaque above the middle of the domain; the domain spans -1000..3000.
+        let step: Vec<[f32; 4]> = (0..11).map(|i| [1.0, 1.0, 1.0, if i >= 5 { 1.0 } else { 0.0 }]).collect();
+        // -1000..3000: tissue maps to 0.3..0.39, where the table is 0.
+        let map = ValueMap::new(1.0 / 4000.0, 0.25).unwrap();
+        assert_eq!(g.occupancy(&step, map), vec![0, 0]);
+        // -1000..1000: tissue maps to 0.6..0.78, where it is opaque.
+        let map = ValueMap::new(1.0 / 2000.0, 0.5).unwrap();
+        assert_eq!(g.occupancy(&step, map), vec![0, 1]);
+        assert_eq!(g.occupancy_reaching(0.75, map), vec![0, 1]);
+        assert_eq!(g.occupancy_reaching(0.85, map), vec![0, 0]);
+        assert_eq!(g.occupancy_reaching(0.9, ValueMap::IDENTITY), vec![0, 1]);
+        assert_eq!(g.occupancy_reaching(2000.0, ValueMap::IDENTITY), vec![0, 0]);
     }
 }

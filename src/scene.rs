@@ -44,6 +44,12 @@ impl Bounds {
         self.max - self.min
     }
 
+    /// The part of this box inside `other`, or None when they do not overlap.
+    pub fn intersection(&self, other: &Bounds) -> Option<Bounds> {
+        let (min, max) = (self.min.max(other.min), self.max.min(other.max));
+        max.cmpgt(min).all().then_some(Bounds { min, max })
+    }
+
     /// World position to texture coordinates in [0, 1]^3 (axis 0 = x).
     pub fn to_unit(&self, p: DVec3) -> DVec3 {
         (p - self.min) / self.extent()

@@ -86,6 +86,39 @@ pub fn eval_lut(lut: &[[f32; 4]], v: f64) -> [f64; 4] {
     out
 }
 
+/// Affine map from a sampled value to the transfer function's [0, 1]
+/// domain, `tf = sample * scale + offset`: a value range in data units
+/// (Hounsfield units, densities) without rescaling the volume. The scale is
+/// positive, so the map keeps order: maxima, minima and iso crossings of the
+/// mapped field are those of the sampled one. NaN stays NaN.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ValueMap {
+    pub scale: f64,
+    pub offset: f64,
+}
+
+impl ValueMap {
+    pub const IDENTITY: ValueMap = ValueMap { scale: 1.0, offset: 0.0 };
+
+    pub fn new(scale: f64, offset: f64) -> Result<ValueMap, String> {
+        if !(scale.is_finite() && scale > 0.0 && offset.is_finite()) {
+            return Err(format!("value map needs a finite scale > 0 and a finite offset, got scale {scale}, offset {offset}"));
+        }
+        Ok(ValueMap { scale, offset })
+    }
+
+    #[inline]
+    pub fn apply(self, v: f64) -> f64 {
+        v * self.scale + self.offset
+    }
+}
+
+impl Default for ValueMap {
+    fn default() -> Self {
+        ValueMap::IDENTITY
+    }
+}
+
 /// Names of the colormaps pyvr carries itself.
 pub fn colormap_names() -> Vec<&'static str> {
     colormaps_data::TABLES.iter().map(|(n, _)| *n).collect()

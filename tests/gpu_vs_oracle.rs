@@ -9,6 +9,7 @@ use pyvr_core::gpu::GpuRenderer;
 use pyvr_core::integrate::{render, Frame};
 use pyvr_core::scene::{Bounds, Camera, Light, LightKind};
 use pyvr_core::gpu::half::{f16_to_f32, f32_to_f16};
+use pyvr_core::transfer::ValueMap;
 use pyvr_core::volume::{Precision, VolumeView, Voxels};
 
 fn blob(dims: [usize; 3]) -> Vec<f32> {
@@ -49,6 +50,8 @@ fn compare_path(frame: &Frame, label: &str, shader_filtering: bool, precision: P
     gpu.shader_filtering = shader_filtering;
     gpu.set_volume_with_precision(&frame.volume, precision).unwrap();
     gpu.set_lut(frame.lut).unwrap();
+    gpu.set_value_map(frame.value_map).unwrap();
+    gpu.set_clip(frame.clip);
     let (img, stats) = gpu.render(&frame.camera, &frame.light, &frame.config).unwrap();
     let (oracle, needed) = render(frame).unwrap();
     assert_eq!(stats.truncated_needed as u64, needed, "{label}: truncation report");
@@ -77,6 +80,8 @@ fn base_frame<'a>(vol: VolumeView<'a>, lut: &'a [[f32; 4]]) -> Frame<'a> {
         width: 40,
         height: 32,
         adaptive_tolerance: 0.0,
+        value_map: ValueMap::IDENTITY,
+        clip: None,
     }
 }
 
@@ -88,6 +93,42 @@ fn gradient_shaded_non_cubic_anisotropic() {
     let b = Bounds::new(DVec3::new(-0.6, -0.5, -0.3), DVec3::new(0.6, 0.7, 0.3)).unwrap();
     let vol = VolumeView::new(dims, Voxels::F32(&data), None, b).unwrap();
     compare(&base_frame(vol, &lut), "gradient");
+}
+
+/// A volume in data units (here -1000..3000, a CT's Hounsfield range) with
+/// the value map that takes that range to the table's [0, 1]: the device
+/// maps each sample as the oracle does, lit by gradients and as an isosurface.
+#[test]
+fn value_map_in_data_units() {
+    let dims = [12, 20, 9];
+    let data: Vec<f32> = blob(dims).iter().map(|v| v * 4000.0 - 1000.0).collect();
+    let lut = ramp_lut();
+    let vol = VolumeView::new(dims, Voxels::F32(&data), None, Bounds::default()).unwrap();
+    let mut f = base_frame(vol, &lut);
+    f.value_map = ValueMap::new(1.0 / 4000.0, 0.25).unwrap();
+    compare(&f, "value map");
+    f.config = RenderConfig { model: pyvr_core::model::Model::Isosurface, iso_value: 0.5, ..RenderConfig::default() };
+    compare(&f, "value map, isosurface");
+    // u16 storage is read as value / 65535; 12-bit data spans 0..4095.
+    let u16s: Vec<u16> = blob(dims).iter().map(|v| (v * 4095.0).round() as u16).collect();
+    let vol = VolumeView::new(dims, Voxels::U16(&u16s), None, Bounds::default()).unwrap();
+    let mut f = base_frame(vol, &lut);
+    f.value_map = ValueMap::new(65535.0 / 4095.0, 0.0).unwrap();
+    compare(&f, "value map, 12-bit in u16");
+}
+
+/// A crop box limits the camera rays and the shadow rays alike.
+#[test]
+fn clip_box_with_shadows() {
+    let dims = [12, 20, 9];
+    let data = blob(dims);
+    let lut = ramp_lut();
+    let vol = VolumeView::new(dims, Voxels::F32(&data), None, Bounds::default()).unwrap();
+    let mut f = base_frame(vol, &lut);
+    f.clip = Some(Bounds::new(DVec3::new(-0.5, -0.1, -0.5), DVec3::new(0.2, 0.5, 0.3)).unwrap());
+    compare(&f, "clip");
+    f.config = RenderConfig { model: pyvr_core::model::Model::SingleScattering, ..RenderConfig::default() };
+    compare(&f, "clip, single scattering");
 }
 
 #[test]

@@ -5,14 +5,16 @@ wgpu compute shaders. ``import pyvr`` needs numpy and scipy only; matplotlib,
 Pillow and moderngl are imported when a feature needs them.
 """
 
-from . import camera, datasets, lighting, moderngl_renderer, transferfunctions, volume
+from . import camera, dataloaders, datasets, lighting, moderngl_renderer, transferfunctions, volume
 from .config import RenderConfig
+from .dataloaders import load
 from .renderer import VolumeRenderer
 
 __version__ = "0.5.0"
 
 __all__ = [
     "camera",
+    "dataloaders",
     "datasets",
     "lighting",
     "moderngl_renderer",
@@ -20,4 +22,5 @@ __all__ = [
     "volume",
     "RenderConfig",
     "VolumeRenderer",
+    "load",
 ]

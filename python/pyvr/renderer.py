@@ -19,11 +19,41 @@ from .camera import Camera
 from .config import RenderConfig
 from .lighting import Light
 from .transferfunctions import ColorTransferFunction, OpacityTransferFunction
+from .transferfunctions.value_range import check_value_range, sample_map
 from .volume import Volume
 
 
 def _vec(v):
     a = np.asarray(v, dtype=np.float64).reshape(-1)
+    return (float(a[0]), float(a[1]), float(a[2]))
+
+
+def _colour(c):
+    if isinstance(c, str):
+        try:
+            from matplotlib.colors import to_rgb
+        except ImportError as e:
+            raise ImportError("colour names need matplotlib: pip install 'pyvr[plot]', or give (r, g, b)") from e
+        try:
+            return to_rgb(c)
+        except ValueError:
+            raise ValueError(f"background {c!r} is not a colour name matplotlib knows") from None
+    try:
+        a = np.asarray(c, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError):
+        raise TypeError(f"background must be an (r, g, b) colour, got {c!r}") from None
+    if a.shape != (3,) or not np.all((a >= 0) & (a <= 1)):
+        raise ValueError(f"background must be three numbers in [0, 1], got {c!r}")
+    return tuple(a)
+
+
+def _finite_vec(name, v):
+    try:
+        a = np.asarray(v, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError):
+        raise TypeError(f"{name} must be three numbers, got {v!r}") from None
+    if a.shape != (3,) or not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} must be three finite numbers, got {v!r}")
     return (float(a[0]), float(a[1]), float(a[2]))
 
 
@@ -93,6 +123,9 @@ class VolumeRenderer:
         self._warned = set()
         self.last_frame_stats: dict = {}
         self.last_float64_depth: Optional[np.ndarray] = None
+        self._tf_value_range = None
+        self._value_map = (1.0, 0.0)
+        self._crop = None
         self.set_config(config)
         self.set_light(light)
         self._has_tf = False
@@ -132,6 +165,7 @@ class VolumeRenderer:
         self._engine.set_volume(data, normals, _vec(volume.min_bounds), _vec(volume.max_bounds), precision)
         self.volume = volume
         self._bounds = (_vec(volume.min_bounds), _vec(volume.max_bounds))
+        self._update_value_map()
 
     def set_camera(self, camera: Camera) -> None:
         """Use this camera; later changes to the object need another set_camera."""
@@ -154,9 +188,29 @@ class VolumeRenderer:
         )
         self.light = light
 
-    def set_transfer_functions(self, color_transfer_function, opacity_transfer_function, size: Optional[int] = None) -> None:
+    def set_transfer_functions(self, color_transfer_function, opacity_transfer_function, size: Optional[int] = None,
+                               *, value_range=None) -> None:
         """Tabulate both functions at ``size`` points (default: the larger
-        lut_size) over [0, 1]; the renderer interpolates between entries."""
+        lut_size) over [0, 1]; the renderer interpolates between entries.
+
+        ``value_range=(low, high)`` says which data values the functions'
+        [0, 1] spans (e.g. Hounsfield units, ``window_level(400, 40)``):
+        value v is looked up at ``(v - low) / (high - low)``, on the GPU,
+        without rescaling the volume. Default: the functions' own
+        ``value_range`` (they must agree), else the volume's, else pyvr's
+        rule ([0, 1] for float data, the type's range for uint8/uint16).
+        """
+        ranges = {tf.value_range for tf in (color_transfer_function, opacity_transfer_function)
+                  if getattr(tf, "value_range", None) is not None}
+        if value_range is not None:
+            value_range = check_value_range(value_range)
+        elif len(ranges) > 1:
+            raise ValueError(
+                f"the colour and opacity transfer functions have different value ranges {sorted(ranges)}: "
+                "give both the same, or pass value_range= to set_transfer_functions"
+            )
+        elif ranges:
+            value_range = ranges.pop()
         n = size or max(color_transfer_function.lut_size, opacity_transfer_function.lut_size)
         rgb = np.asarray(color_transfer_function.to_lut(n), dtype=np.float32).reshape(n, 3)
         alpha = np.asarray(opacity_transfer_function.to_lut(n), dtype=np.float32).reshape(n)
@@ -168,6 +222,42 @@ class VolumeRenderer:
         self._engine.set_lut(lut)
         self._lut = lut
         self._has_tf = True
+        self._tf_value_range = value_range
+        self._update_value_map()
+
+    @property
+    def value_range(self) -> Optional[tuple]:
+        """The (low, high) data values the transfer functions span now, or
+        None for pyvr's rule (see set_transfer_functions)."""
+        if self._tf_value_range is not None:
+            return self._tf_value_range
+        return None if self.volume is None else self.volume.value_range
+
+    def _update_value_map(self) -> None:
+        if self.volume is None:
+            return
+        self._value_map = sample_map(self.value_range, self.volume.data.dtype)
+        self._engine.set_value_map(*self._value_map)
+
+    def set_crop_box(self, min_corner=None, max_corner=None) -> None:
+        """Render only the part of the volume inside the box ``[min_corner,
+        max_corner]`` (world coordinates; shadow rays stop at it too).
+        Nothing is copied or uploaded. No arguments: the whole volume again."""
+        if min_corner is None and max_corner is None:
+            self._crop = None
+        else:
+            if min_corner is None or max_corner is None:
+                raise ValueError("set_crop_box needs both corners, or neither to remove the crop")
+            lo, hi = _finite_vec("min_corner", min_corner), _finite_vec("max_corner", max_corner)
+            if not all(h > l for l, h in zip(lo, hi)):
+                raise ValueError(f"max_corner must be greater than min_corner on every axis, got {lo} and {hi}")
+            self._crop = (lo, hi)
+        self._engine.set_clip(self._crop)
+
+    @property
+    def crop_box(self) -> Optional[tuple]:
+        """((x, y, z), (x, y, z)) set by set_crop_box, or None."""
+        return self._crop
 
     def set_config(self, config: RenderConfig) -> None:
         if not isinstance(config, RenderConfig):
@@ -227,28 +317,47 @@ class VolumeRenderer:
             key = (cfg.step_size, cfg.max_steps, self._bounds)
             if key not in self._warned:
                 self._warned.add(key)
+                diag = float(np.linalg.norm(np.subtract(self._bounds[1], self._bounds[0])))
+                hint = ""
+                if diag > 10.0:
+                    # pyvr's presets are sized for boxes about 2-3.5 units across.
+                    hint = (
+                        f" This volume's box is {diag:.4g} world units across (physical units?) while pyvr's presets "
+                        "are made for boxes about 2 units wide: load files with pyvr.load(path), which maps the box "
+                        "into [-1, 1] keeping its proportions, or scale step_size with the box "
+                        f"(step_size={cfg.step_size * diag / 2 / np.sqrt(3):.3g} keeps this preset's samples per ray)."
+                    )
                 warnings.warn(
                     f"max_steps={cfg.max_steps} cannot cross the volume at step_size={cfg.step_size}: "
                     f"some rays were cut short; max_steps={needed} would cross it "
-                    f"(config.with_max_steps({needed}))",
+                    f"(config.with_max_steps({needed})).{hint}",
                     UserWarning,
                     stacklevel=3,
                 )
         return img
 
-    def render(self, *, dtype=np.uint8, premultiplied: bool = False, origin: str = "lower") -> np.ndarray:
+    def render(self, *, dtype=np.uint8, premultiplied: bool = False, origin: str = "lower",
+               background=None) -> np.ndarray:
         """Render a frame as a C-contiguous (H, W, 4) array.
 
         dtype: np.uint8 (default) or np.float32. premultiplied: return colour
         multiplied by alpha (default: straight colour). origin: "lower"
         (default, row 0 = bottom, pyvr's order) or "upper" (row 0 = top).
+        background: an RGB colour (three numbers in [0, 1], or a name such as
+        "white" when matplotlib is installed) to composite the frame over;
+        the result is opaque. Default None: transparent, straight RGBA.
         """
+        bg = None if background is None else _colour(background)
         if origin not in ("lower", "upper"):
             raise ValueError(f"origin must be 'lower' or 'upper', got {origin!r}")
         dt = np.dtype(dtype)
         if dt not in (np.dtype(np.uint8), np.dtype(np.float32)):
             raise ValueError(f"dtype must be uint8 or float32, got {dt}")
         img = self._render_float()
+        if bg is not None:
+            # Premultiplied colour over an opaque background: C + (1 - A) B.
+            img[..., :3] += (1.0 - img[..., 3:4]) * np.asarray(bg, np.float32)
+            img[..., 3] = 1.0
         if dt == np.uint8:
             out = _core.quantize(img, not premultiplied)
         else:
@@ -294,6 +403,7 @@ class VolumeRenderer:
         img, _, depth = _core.integrate_reference(
             prepare_voxels(self.volume.data), prepare_normals(self.volume.normals), *self._bounds, self._lut,
             camera, self._light_args, cfg, width, height, order, float(adaptive_tolerance),
+            self._value_map, self._crop,
         )
         self.last_float64_depth = depth
         if not premultiplied:
@@ -323,7 +433,9 @@ class VolumeRenderer:
         return np.ascontiguousarray(d[::-1]) if origin == "upper" else d
 
     def _default_camera_args(self):
-        position, up = (cam := Camera.front_view()).get_camera_vectors()
+        """With no camera set, a front view that frames the whole volume."""
+        cam = Camera.fit(self.volume, aspect=self.width / self.height)
+        position, up = cam.get_camera_vectors()
         return (_vec(position), _vec(cam.target), _vec(up), float(cam.fov))
 
     def render_to_pil(self, data=None):

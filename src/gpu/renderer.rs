@@ -1,6 +1,6 @@
 //! A renderer's GPU resources and its frame. Resources live as long as the
 //! renderer and are replaced only when their input changes: a camera, light
-//! or config change rewrites one 208-byte uniform block and nothing else.
+//! or config change rewrites one 256-byte uniform block and nothing else.
 
 use super::context::{GpuContext, GpuError};
 use super::half::{f16_to_f32, f32_to_f16};
@@ -10,6 +10,7 @@ use crate::model::Model;
 use crate::preintegrate;
 use crate::occupancy::{pyramid, MinMaxGrid};
 use crate::scene::{Bounds, Camera, Light, LightKind, Shading};
+use crate::transfer::ValueMap;
 use crate::volume::{sanitize, Precision, VolumeView, Voxels};
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
@@ -45,6 +46,11 @@ struct Params {
     jitter_seed: u32,
     /// (iso_value, anisotropy g, shadow step, pre-integration table side)
     model_params: [f32; 4],
+    /// (scale, offset, -, -): sampled value -> transfer-function domain.
+    value_map: [f32; 4],
+    /// The box rays march in, relative to the volume's min corner.
+    clip_lo: [f32; 4],
+    clip_hi: [f32; 4],
 }
 
 /// Steps one dispatch marches at most. Below lavapipe's 65535-iteration loop
@@ -172,6 +178,10 @@ pub struct GpuRenderer {
     lut: Option<(wgpu::TextureView, u32)>,
     /// Bumped by every set_lut, so derived tables know when to rebuild.
     lut_version: u64,
+    /// Sampled value -> table domain.
+    value_map: ValueMap,
+    /// Crop box in world coordinates (None: the whole volume).
+    clip: Option<Bounds>,
     /// The pre-integration table and what it was built for.
     preint: Option<(wgpu::TextureView, PreintKey)>,
     /// Bound when no frame has needed a pre-integration table.
@@ -286,6 +296,8 @@ impl GpuRenderer {
             shader_filtering: false,
             lut: None,
             lut_version: 0,
+            value_map: ValueMap::IDENTITY,
+            clip: None,
             preint: None,
             dummy_preint,
             depth_ready: false,
@@ -559,6 +571,29 @@ impl GpuRenderer {
         Ok(())
     }
 
+    /// Maps sampled values to the table's [0, 1] (a value range in data
+    /// units). Recomputes which cells are empty when it changes.
+    pub fn set_value_map(&mut self, map: ValueMap) -> Result<(), GpuError> {
+        if map != self.value_map {
+            self.value_map = map;
+            self.occ_source = None;
+            if self.volume.is_some() && !self.lut_rows.is_empty() {
+                self.update_occupancy(OccSource::Lut(self.lut_version))?;
+            }
+        }
+        Ok(())
+    }
+
+    pub fn value_map(&self) -> ValueMap {
+        self.value_map
+    }
+
+    /// Rays march only inside `clip` (world coordinates) from the next frame
+    /// on; None marches the whole volume. Nothing is uploaded.
+    pub fn set_clip(&mut self, clip: Option<Bounds>) {
+        self.clip = clip;
+    }
+
     /// Which occupancy cells the current table can make visible (or, for
     /// the isosurface, can reach the iso value), uploaded as a small R8Uint
     /// 3-D texture (one byte per 8^3 voxels).
@@ -570,8 +605,8 @@ impl GpuRenderer {
             return Ok(());
         }
         let occ = match source {
-            OccSource::Lut(_) => vol.grid.occupancy(&self.lut_rows),
-            OccSource::Below(bits) => vol.grid.occupancy_reaching(f64::from_bits(bits)),
+            OccSource::Lut(_) => vol.grid.occupancy(&self.lut_rows, self.value_map),
+            OccSource::Below(bits) => vol.grid.occupancy_reaching(f64::from_bits(bits), self.value_map),
         };
         let [g0, g1, g2] = vol.grid.dims;
         // Up to 4 levels (cells of 8, 16, 32, 64 voxels), as a mip chain allows.
@@ -600,6 +635,11 @@ impl GpuRenderer {
         let ext = vol.bounds.extent();
         let spacing = ext / DVec3::new(vol.dims[0] as f64, vol.dims[1] as f64, vol.dims[2] as f64);
         let light_dir = (light.target - light.position).normalize_or_zero();
+        // A crop that misses the volume leaves an empty box: no ray enters it.
+        let clip = match self.clip {
+            Some(c) => vol.bounds.intersection(&c).unwrap_or(Bounds { min: vol.bounds.min, max: vol.bounds.min }),
+            None => vol.bounds,
+        };
         Ok(Params {
             cam_pos: v4(basis.origin - vol.bounds.min),
             cam_fwd: v4(basis.forward),
@@ -632,6 +672,9 @@ impl GpuRenderer {
                 cfg.shadow_step() as f32,
                 preintegrate::table_side(self.lut_rows.len()) as f32,
             ],
+            value_map: [self.value_map.scale as f32, self.value_map.offset as f32, 0.0, 0.0],
+            clip_lo: v4(clip.min - vol.bounds.min),
+            clip_hi: v4(clip.max - vol.bounds.min),
         })
     }
 

@@ -8,6 +8,7 @@ use crate::gpu::renderer::to_u8;
 use crate::gpu::{GpuError, GpuRenderer};
 use crate::integrate::{self, Frame};
 use crate::scene::{Bounds, Camera, Light, LightKind};
+use crate::transfer::ValueMap;
 use crate::volume::{Precision, VolumeView, Voxels};
 use glam::DVec3;
 use numpy::{PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray2, PyReadonlyArray3, PyReadonlyArray4, PyUntypedArrayMethods};
@@ -25,6 +26,10 @@ pub fn gpu_err(e: GpuError) -> PyErr {
 }
 
 type Vec3 = (f64, f64, f64);
+
+fn clip_bounds((lo, hi): (Vec3, Vec3)) -> PyResult<Bounds> {
+    Bounds::new(DVec3::from(lo), DVec3::from(hi)).map_err(|e| PyValueError::new_err(format!("crop box: {}", e.0)))
+}
 /// (position, target, up, vertical fov in radians)
 type CameraArgs = (Vec3, Vec3, Vec3, f64);
 /// (position, target, ambient, diffuse, "directional" | "point")
@@ -188,6 +193,19 @@ impl PyRenderer {
         self.inner.set_lut(&rows).map_err(gpu_err)
     }
 
+    /// Sampled value -> table domain: `tf = sample * scale + offset`.
+    fn set_value_map(&mut self, scale: f64, offset: f64) -> PyResult<()> {
+        let map = ValueMap::new(scale, offset).map_err(PyValueError::new_err)?;
+        self.inner.set_value_map(map).map_err(gpu_err)
+    }
+
+    /// Rays march only inside the box (min, max) in world coordinates; None
+    /// marches the whole volume.
+    fn set_clip(&mut self, clip: Option<(Vec3, Vec3)>) -> PyResult<()> {
+        self.inner.set_clip(clip.map(clip_bounds).transpose()?);
+        Ok(())
+    }
+
     /// Renders one frame: float32 (H, W, 4) premultiplied RGBA, row 0 at the
     /// bottom, and a dict of frame statistics.
     #[pyo3(signature = (camera, light, config))]
@@ -284,7 +302,7 @@ pub fn quantize<'py>(py: Python<'py>, rgba: PyReadonlyArray3<'py, f32>, straight
 /// splits segments where the transfer function varies (see `Frame`).
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
-#[pyo3(signature = (data, normals, min_bounds, max_bounds, lut, camera, light, config, width, height, order=None, adaptive_tolerance=0.0))]
+#[pyo3(signature = (data, normals, min_bounds, max_bounds, lut, camera, light, config, width, height, order=None, adaptive_tolerance=0.0, value_map=(1.0, 0.0), clip=None))]
 pub fn integrate_reference<'py>(
     py: Python<'py>,
     data: &Bound<'py, PyAny>,
@@ -299,11 +317,15 @@ pub fn integrate_reference<'py>(
     height: u32,
     order: Option<&str>,
     adaptive_tolerance: f64,
+    value_map: (f64, f64),
+    clip: Option<(Vec3, Vec3)>,
 ) -> PyResult<(Bound<'py, PyArray3<f64>>, u64, Bound<'py, PyArray2<f64>>)> {
     if !(adaptive_tolerance >= 0.0 && adaptive_tolerance.is_finite()) {
         return Err(PyValueError::new_err(format!("adaptive_tolerance must be a finite number >= 0, got {adaptive_tolerance}")));
     }
     let rows = lut_rows(&lut)?;
+    let value_map = ValueMap::new(value_map.0, value_map.1).map_err(PyValueError::new_err)?;
+    let clip = clip.map(clip_bounds).transpose()?;
     let mut cfg = config.inner;
     if let Some(o) = order {
         cfg.order = crate::model::Order::parse(o).map_err(|e| PyValueError::new_err(e.0))?;
@@ -312,7 +334,7 @@ pub fn integrate_reference<'py>(
     let camera = camera_from(&camera);
     let light = light_from(&light)?;
     let img = with_volume(data, &normals, min_bounds, max_bounds, |volume| {
-        let frame = Frame { volume, lut: &rows, camera, light, config: cfg, width, height, adaptive_tolerance };
+        let frame = Frame { volume, lut: &rows, camera, light, config: cfg, width, height, adaptive_tolerance, value_map, clip };
         py.detach(|| integrate::render_image(&frame)).map_err(|e| PyValueError::new_err(e.0))
     })?;
     let flat: Vec<f64> = img.rgba.into_iter().flatten().collect();

@@ -107,6 +107,45 @@ class Camera:
             distance=distance,
         )
 
+    @classmethod
+    def fit(cls, volume, *, azimuth: float = 0.0, elevation: float = 0.0, roll: float = 0.0,
+            fov: float = np.pi / 4, aspect: float = 1.0, margin: float = 1.05) -> "Camera":
+        """A camera aimed at the centre of ``volume`` (a Volume, or a
+        ``(min_bounds, max_bounds)`` pair) from the given angles, far enough
+        that the box's bounding sphere fits the view with ``margin`` to spare,
+        in an image ``aspect`` = width / height. Works at any scale: a CT in
+        millimetres is framed as well as pyvr's [-1, 1] box."""
+        if hasattr(volume, "min_bounds") and hasattr(volume, "max_bounds"):
+            lo, hi = volume.min_bounds, volume.max_bounds
+        else:
+            try:
+                lo, hi = volume
+            except (TypeError, ValueError):
+                raise TypeError(f"fit needs a Volume or a (min_bounds, max_bounds) pair, got {type(volume)}") from None
+        lo = np.asarray(lo, np.float64).reshape(-1)
+        hi = np.asarray(hi, np.float64).reshape(-1)
+        if lo.shape != (3,) or hi.shape != (3,) or not np.all(np.isfinite(lo)) or not np.all(hi > lo):
+            raise ValueError(f"fit needs finite bounds with max > min, got {lo} and {hi}")
+        if not (is_number(aspect) and aspect > 0 and is_number(margin) and margin > 0):
+            raise ValueError(f"aspect and margin must be positive numbers, got {aspect!r} and {margin!r}")
+        if not (is_number(fov) and 0 < fov < np.pi):
+            raise ValueError("fov must be between 0 and π radians")
+        centre = 0.5 * (lo + hi)
+        radius = 0.5 * float(np.linalg.norm(hi - lo))
+        half = min(0.5 * fov, np.arctan(aspect * np.tan(0.5 * fov)))
+        distance = margin * radius / np.sin(half)
+        return cls(
+            target=centre.astype(np.float32),
+            azimuth=azimuth,
+            elevation=elevation,
+            roll=roll,
+            distance=float(distance),
+            init_pos=(centre + np.array([radius, 0.0, 0.0])).astype(np.float32),
+            fov=fov,
+            near_plane=float(min(0.1, 0.01 * distance)),
+            far_plane=float(max(100.0, 2.0 * (distance + radius))),
+        )
+
     def to_dict(self) -> dict:
         return {
             "target": np.asarray(self.target).tolist(),

@@ -3,6 +3,7 @@
 from .base import BaseTransferFunction, InvalidControlPointError, TransferFunctionError
 from .color import ColorTransferFunction
 from .opacity import OpacityTransferFunction
+from .value_range import CT_WINDOWS, window_level
 
 __version__ = "0.2.2"
 
@@ -12,4 +13,6 @@ __all__ = [
     "OpacityTransferFunction",
     "TransferFunctionError",
     "InvalidControlPointError",
+    "CT_WINDOWS",
+    "window_level",
 ]

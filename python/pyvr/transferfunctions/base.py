@@ -25,12 +25,26 @@ class BaseTransferFunction(ABC):
     returns ``(size,)`` or ``(size, 3)`` values can be given to the renderer.
     """
 
-    def __init__(self, control_points: Optional[List[Tuple]] = None, lut_size: int = 256):
+    def __init__(self, control_points: Optional[List[Tuple]] = None, lut_size: int = 256, *, value_range=None):
         if control_points is None:
             control_points = self._get_default_control_points()
         self.control_points = sorted(control_points, key=lambda p: p[0])
         self.lut_size = lut_size
+        self.value_range = value_range
         self._validate_control_points()
+
+    @property
+    def value_range(self) -> Optional[Tuple[float, float]]:
+        """The (low, high) data values this function's [0, 1] domain spans,
+        or None (the volume's value_range, else pyvr's rule). See
+        :mod:`pyvr.transferfunctions.value_range`."""
+        return getattr(self, "_value_range", None)
+
+    @value_range.setter
+    def value_range(self, value_range) -> None:
+        from .value_range import check_value_range
+
+        self._value_range = None if value_range is None else check_value_range(value_range)
 
     @abstractmethod
     def _get_default_control_points(self) -> List[Tuple]:

@@ -13,8 +13,8 @@ RGB = Tuple[float, float, float]
 class ColorTransferFunction(BaseTransferFunction):
     """Maps scalars in [0, 1] to RGB by linear interpolation of control points."""
 
-    def __init__(self, control_points: Optional[List[Tuple[float, RGB]]] = None, lut_size: int = 256):
-        super().__init__(control_points, lut_size)
+    def __init__(self, control_points: Optional[List[Tuple[float, RGB]]] = None, lut_size: int = 256, *, value_range=None):
+        super().__init__(control_points, lut_size, value_range=value_range)
 
     def _get_default_control_points(self):
         return [(0.0, (0.0, 0.0, 0.0)), (1.0, (1.0, 1.0, 1.0))]

@@ -15,8 +15,8 @@ class OpacityTransferFunction(BaseTransferFunction):
     function looks the same at every quality preset.
     """
 
-    def __init__(self, control_points: Optional[List[Tuple[float, float]]] = None, lut_size: int = 256):
-        super().__init__(control_points, lut_size)
+    def __init__(self, control_points: Optional[List[Tuple[float, float]]] = None, lut_size: int = 256, *, value_range=None):
+        super().__init__(control_points, lut_size, value_range=value_range)
 
     def _get_default_control_points(self):
         return [(0.0, 0.0), (1.0, 1.0)]

@@ -1,7 +1,7 @@
 """The Volume: a 3-D array, its world box and optional normals (pyvr 0.4.1)."""
 
 from dataclasses import dataclass, field
-from typing import Optional
+from typing import Optional, Tuple
 
 import numpy as np
 
@@ -24,6 +24,12 @@ class Volume:
     uint16 data are read as fractions of their range (like GPU unorm
     textures) and stored in 1 or 2 bytes per voxel; other dtypes are
     converted to float32. NaN voxels are empty.
+
+    Two fields are new (keyword-only in practice, after pyvr's five):
+    ``value_range``, the (low, high) data values the transfer functions'
+    [0, 1] domain spans for this volume (None: pyvr's rule above; a
+    transfer function's own value_range takes precedence), and ``metadata``,
+    what a loader knew about the file (physical spacing, origin, units).
     """
 
     data: np.ndarray
@@ -31,6 +37,8 @@ class Volume:
     min_bounds: np.ndarray = field(default_factory=lambda: _f32([-0.5, -0.5, -0.5]))
     max_bounds: np.ndarray = field(default_factory=lambda: _f32([0.5, 0.5, 0.5]))
     name: Optional[str] = None
+    value_range: Optional[Tuple[float, float]] = None
+    metadata: dict = field(default_factory=dict)
 
     def __post_init__(self):
         self.validate()
@@ -51,6 +59,10 @@ class Volume:
             raise ValueError("max_bounds must be a 3D numpy array")
         if np.any(self.max_bounds <= self.min_bounds):
             raise ValueError("max_bounds must be greater than min_bounds")
+        if self.value_range is not None:
+            from ..transferfunctions.value_range import check_value_range
+
+            self.value_range = check_value_range(self.value_range)
 
     @property
     def shape(self):
@@ -71,6 +83,34 @@ class Volume:
     @property
     def voxel_spacing(self) -> np.ndarray:
         return self.dimensions / np.array(self.data.shape)
+
+    def histogram(self, bins: int = 256, value_range=None, *, log: bool = False):
+        """Counts of the finite voxel values in ``bins`` equal bins over
+        ``value_range`` (default: the volume's value_range, else its data
+        range). Returns (counts, edges) as numpy's histogram does; with
+        ``log=True`` counts are log10(1 + count), as a TF editor shows them.
+        NaN and +-Inf voxels are not counted (they are empty to the renderer).
+        """
+        if isinstance(bins, bool) or not isinstance(bins, (int, np.integer)) or bins < 1:
+            raise ValueError(f"bins must be a positive integer, got {bins!r}")
+        if value_range is None:
+            value_range = self.value_range or data_range(self.data)
+        else:
+            from ..transferfunctions.value_range import check_value_range
+
+            value_range = check_value_range(value_range)
+        counts = np.zeros(int(bins), np.int64)
+        edges = np.linspace(value_range[0], value_range[1], int(bins) + 1)
+        # In slabs, so a large volume needs no float copy of itself.
+        flat = self.data.reshape(self.data.shape[0], -1)
+        rows = max(1, (1 << 22) // max(1, flat.shape[1]))
+        for i in range(0, flat.shape[0], rows):
+            chunk = flat[i:i + rows].astype(np.float64).ravel()
+            chunk = chunk[np.isfinite(chunk)]
+            counts += np.histogram(chunk, bins=edges)[0]
+        if log:
+            return np.log10(1.0 + counts), edges
+        return counts, edges
 
     def compute_normals(self, method: str = "gradient") -> None:
         if method != "gradient":
@@ -95,6 +135,7 @@ class Volume:
             min_bounds=self.min_bounds.copy(),
             max_bounds=self.max_bounds.copy(),
             name=None if self.name is None else f"{self.name}_normalized",
+            metadata=dict(self.metadata),
         )
 
     def copy(self) -> "Volume":
@@ -104,9 +145,28 @@ class Volume:
             min_bounds=self.min_bounds.copy(),
             max_bounds=self.max_bounds.copy(),
             name=self.name,
+            value_range=self.value_range,
+            metadata=dict(self.metadata),
         )
 
     def __repr__(self) -> str:
         name = f"'{self.name}'" if self.name is not None else "unnamed"
         normals = "with normals" if self.has_normals else "no normals"
         return f"Volume({name}, shape={self.shape}, bounds=[{self.min_bounds}, {self.max_bounds}], {normals})"
+
+
+def data_range(data: np.ndarray) -> Tuple[float, float]:
+    """(min, max) of the finite values; a constant or empty volume gets a
+    range one unit wide so that the transfer function still has a domain."""
+    a = np.asarray(data)
+    if a.dtype.kind in "biu":
+        lo, hi = float(a.min()), float(a.max())
+    else:
+        with np.errstate(invalid="ignore"):
+            finite = a[np.isfinite(a)] if not np.all(np.isfinite(a)) else a
+        if finite.size == 0:
+            return (0.0, 1.0)
+        lo, hi = float(finite.min()), float(finite.max())
+    if not hi > lo:
+        hi = lo + 1.0
+    return (lo, hi)
