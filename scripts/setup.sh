@@ -31,7 +31,9 @@ if [ ! -x .venv/bin/python ]; then
 fi
 echo "== installing Python packages"
 .venv/bin/python -m pip install -q --upgrade pip
-.venv/bin/python -m pip install -q "maturin>=1.7,<2" numpy scipy pillow matplotlib moderngl pytest hypothesis
+# The file-format extras (nifti, nrrd, dicom, tiff, zarr) are what the loader tests read and write.
+.venv/bin/python -m pip install -q "maturin>=1.7,<2" numpy scipy pillow matplotlib moderngl pytest hypothesis \
+    nibabel pynrrd pydicom tifffile zarr
 
 echo "== building pyvr (release)"
 start=$(date +%s)

@@ -88,17 +88,19 @@ def load_dicom_series(path, *, series_uid: Optional[str] = None) -> GridImage:
         icpt_any |= icpt != 0
         planes.append((px, slope, icpt))
     integral = not slope_any and all(float(i).is_integer() for _, _, i in planes)
-    out_dtype = np.int32 if integral else np.float32
+    out_dtype = np.float32
+    if integral:
+        lo = min(int(px.min()) + int(i) for px, _, i in planes)
+        hi = max(int(px.max()) + int(i) for px, _, i in planes)
+        out_dtype = next(t for t in (np.int16, np.uint16, np.int32, np.int64)
+                         if np.iinfo(t).min <= lo and hi <= np.iinfo(t).max)
     vol = np.empty((cols, rows, len(planes)), out_dtype)
     for k, (px, slope, icpt) in enumerate(planes):
         # pixel_array is (rows, columns): row index runs along y, column along x.
-        vol[:, :, k] = (px.astype(np.float64) * slope + icpt).T if not integral else (px.astype(np.int64) + int(icpt)).T
-    if integral:
-        lo, hi = int(vol.min()), int(vol.max())
-        for t in (np.int16, np.uint16):
-            if np.iinfo(t).min <= lo and hi <= np.iinfo(t).max:
-                vol = vol.astype(t)
-                break
+        if integral:
+            vol[:, :, k] = (px.astype(np.int64) + int(icpt)).T
+        else:
+            vol[:, :, k] = (px.astype(np.float64) * slope + icpt).T
     origin = position(slices[0][1])
     modality = str(getattr(first, "Modality", ""))
     return GridImage(

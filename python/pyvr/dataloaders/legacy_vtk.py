@@ -173,8 +173,10 @@ def _read(path: str, array: Optional[str]) -> GridImage:
     if found is None:
         raise _Bad(f"no point scalars named {array!r}; arrays: {seen}" if array else "no point scalars")
     name, values, shape = found
-    data = np.ascontiguousarray(values.reshape(shape[::-1]).transpose(2, 1, 0))
-    data = data.astype(data.dtype.newbyteorder("="), copy=False)
+    # x fastest in the file: a transposed view (Fortran order), converted
+    # to native byte order in the one copy the file's buffer needs anyway.
+    data = values.reshape(shape[::-1]).transpose(2, 1, 0)
+    data = data.astype(data.dtype.newbyteorder("="), copy=not data.flags.owndata)
     sp = check_spacing(path, spacing if spacing is not None else [1.0, 1.0, 1.0])
     org = np.asarray(origin, np.float64)
     if not np.all(np.isfinite(org)):

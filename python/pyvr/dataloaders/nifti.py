@@ -44,6 +44,6 @@ def load_nifti(path, *, index: Optional[int] = None) -> GridImage:
     affine = img.affine
     spacing = check_spacing(path, np.sqrt((affine[:3, :3] ** 2).sum(axis=0)))
     units = img.header.get_xyzt_units()[0]
-    return GridImage(np.ascontiguousarray(data), spacing, affine[:3, 3].astype(np.float64),
+    return GridImage(data, spacing, affine[:3, 3].astype(np.float64),
                      Path(path).name.split(".")[0], "nifti", units=None if units == "unknown" else units,
                      extra={"affine": affine.copy()})

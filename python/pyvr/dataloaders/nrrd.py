@@ -44,5 +44,5 @@ def load_nrrd(path) -> GridImage:
     origin = np.asarray(header.get("space origin", np.zeros(3)), np.float64).reshape(-1)[:3]
     units = header.get("space units")
     unit = str(units[0]) if units is not None and len(units) else None
-    return GridImage(np.ascontiguousarray(data), check_spacing(path, spacing), origin,
+    return GridImage(data, check_spacing(path, spacing), origin,
                      Path(path).name.split(".")[0], "nrrd", units=unit)

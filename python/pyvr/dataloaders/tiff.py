@@ -44,5 +44,5 @@ def load_tiff(path, *, spacing=None) -> GridImage:
     except Exception as e:
         raise FileFormatError(f"{path}: not a readable TIFF stack ({type(e).__name__}: {e})") from None
     sp = check_spacing(path, spacing if spacing is not None else (sx, sy, sz))
-    data = np.ascontiguousarray(np.asarray(stack).transpose(2, 1, 0))
+    data = np.asarray(stack).transpose(2, 1, 0)  # a view; the upload copies anyway
     return GridImage(data, sp, np.zeros(3), Path(path).name.split(".")[0], "tiff", units=unit)

@@ -48,7 +48,7 @@ def _unpack(fmt: str, raw: bytes, what: str):
     return struct.unpack(fmt, raw[:need])
 
 
-def _decode(blob: bytes, order: str, header: str, compressed: bool, binary: bool, expect: int) -> bytes:
+def _decode(blob: bytes, order: str, header: str, compressed: bool, binary: bool, expect: int):
     """Undo VTK's base64 and zlib block encoding of one array of ``expect`` bytes."""
     h = order + ("Q" if header == "UInt64" else "I")
     size = struct.calcsize(h)
@@ -80,7 +80,7 @@ def _decode(blob: bytes, order: str, header: str, compressed: bool, binary: bool
     if full != expect:
         raise _Bad(f"the compressed blocks hold {full} bytes, the extent needs {expect}")
     pos = (3 + nblocks) * size
-    out = bytearray()
+    out = bytearray()  # returned as it is: np.frombuffer reads it without a copy
     for i, s in enumerate(sizes):
         want = block if (i < nblocks - 1 or last == 0) else last
         chunk = head[pos:pos + s]
@@ -97,7 +97,7 @@ def _decode(blob: bytes, order: str, header: str, compressed: bool, binary: bool
                        f"bytes, the header says {want}")
         out += piece
         pos += s
-    return bytes(out)
+    return out
 
 
 def _ints(text, n, what):
@@ -222,9 +222,10 @@ def _read(path: str, array: Optional[str]) -> GridImage:
         values = np.frombuffer(_decode(blob, order, header, compressor is not None, raw_appended, expect), dtype)
     else:
         raise _Bad(f"array format {fmt!r} is not ascii, binary or appended")
-    # VTK stores x fastest: reshape (z, y, x), then put x on axis 0.
-    data = np.ascontiguousarray(values.reshape(shape[::-1]).transpose(2, 1, 0))
-    if data.dtype.byteorder == ">":
+    # VTK stores x fastest: reshape (z, y, x), then put x on axis 0. The
+    # transposed view (Fortran order) is kept: the upload copies anyway.
+    data = values.reshape(shape[::-1]).transpose(2, 1, 0)
+    if not data.dtype.isnative:
         data = data.astype(data.dtype.newbyteorder("="))
     origin = _floats(image.get("Origin", "0 0 0"), 3, "Origin")
     spacing = check_spacing(path, _floats(image.get("Spacing", "1 1 1"), 3, "Spacing"))

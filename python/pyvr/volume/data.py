@@ -101,11 +101,11 @@ class Volume:
             value_range = check_value_range(value_range)
         counts = np.zeros(int(bins), np.int64)
         edges = np.linspace(value_range[0], value_range[1], int(bins) + 1)
-        # In slabs, so a large volume needs no float copy of itself.
-        flat = self.data.reshape(self.data.shape[0], -1)
-        rows = max(1, (1 << 22) // max(1, flat.shape[1]))
-        for i in range(0, flat.shape[0], rows):
-            chunk = flat[i:i + rows].astype(np.float64).ravel()
+        # In slabs along axis 0, so a large volume needs no float copy of itself.
+        d = self.data
+        rows = max(1, (1 << 22) // max(1, d.shape[1] * d.shape[2]))
+        for i in range(0, d.shape[0], rows):
+            chunk = d[i:i + rows].astype(np.float64).ravel()
             chunk = chunk[np.isfinite(chunk)]
             counts += np.histogram(chunk, bins=edges)[0]
         if log:
