@@ -805,7 +805,6 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     );
     let o = P.cam_pos.xyz;
     let d = normalize(P.cam_fwd.xyz + ndc.x * P.cam_right.xyz + ndc.y * P.cam_up.xyz);
-    let ext = P.extent.xyz;
 
     // Slab test; a zero direction component never divides.
     var t0 = -3.0e38;

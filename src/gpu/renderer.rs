@@ -584,10 +584,6 @@ impl GpuRenderer {
         Ok(())
     }
 
-    pub fn value_map(&self) -> ValueMap {
-        self.value_map
-    }
-
     /// Rays march only inside `clip` (world coordinates) from the next frame
     /// on; None marches the whole volume. Nothing is uploaded.
     pub fn set_clip(&mut self, clip: Option<Bounds>) {

@@ -8,7 +8,7 @@ from typing import Optional
 import numpy as np
 
 from ._extras import require
-from .image import FileFormatError, GridImage, check_shape, check_spacing
+from .image import FileFormatError, GridImage, check_shape, check_spacing, choose_key
 
 
 def _image(path, data, spacing, origin, fmt, name, units=None) -> GridImage:
@@ -33,14 +33,7 @@ def load_npy(path, *, key: Optional[str] = None, spacing=None, origin=None, mmap
         raise FileFormatError(f"{path}: not a readable .npy/.npz file ({e})") from None
     if isinstance(obj, np.lib.npyio.NpzFile):
         with obj:
-            keys = list(obj.keys())
-            if key is None:
-                if len(keys) != 1:
-                    raise ValueError(f"{path} holds arrays {keys}: pass key= to choose one")
-                key = keys[0]
-            if key not in keys:
-                raise ValueError(f"{path} has no array {key!r}; it holds {keys}")
-            data = obj[key]
+            data = obj[choose_key(path, obj.keys(), key)]
         fmt = "npz"
     else:
         data, fmt = obj, "npy"
@@ -61,13 +54,7 @@ def load_zarr(path, *, key: Optional[str] = None, spacing=None, origin=None) -> 
         raise FileFormatError(f"{path}: not a readable zarr store ({type(e).__name__}: {e})") from None
     if not hasattr(node, "shape"):
         names = sorted(node.array_keys()) if hasattr(node, "array_keys") else []
-        if key is None:
-            if len(names) != 1:
-                raise ValueError(f"{path} is a zarr group with arrays {names}: pass key= to choose one")
-            key = names[0]
-        if key not in names:
-            raise ValueError(f"{path} has no array {key!r}; it holds {names}")
-        node = node[key]
+        node = node[choose_key(path, names, key, "a zarr group of arrays")]
     if len(node.shape) != 3:
         raise FileFormatError(f"{path}: array of shape {node.shape}; a volume needs 3 dimensions")
     check_shape(path, node.shape, node.dtype)

@@ -2,6 +2,7 @@
 file's geometry, and how that becomes a Volume."""
 
 import os
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Optional, Tuple
 
@@ -13,6 +14,32 @@ from ..volume import Volume
 class FileFormatError(ValueError):
     """A file that cannot be read as the format it claims: truncated, sizes
     that disagree, absurd dimensions, unknown types. Names the file."""
+
+
+class Malformed(Exception):
+    """Raised inside a reader for a malformed part of a file; ``names_file``
+    turns it into a FileFormatError that names the file."""
+
+
+@contextmanager
+def names_file(path):
+    try:
+        yield
+    except Malformed as e:
+        raise FileFormatError(f"{path}: {e}") from None
+
+
+def choose_key(path, keys, key, what="arrays"):
+    """``key`` if ``keys`` holds it, the only key when ``key`` is None, else
+    a ValueError listing them."""
+    keys = list(keys)
+    if key is None:
+        if len(keys) != 1:
+            raise ValueError(f"{path} holds {what} {keys}: pass key= to choose one")
+        return keys[0]
+    if key not in keys:
+        raise ValueError(f"{path} has no array {key!r}; it holds {keys}")
+    return key
 
 
 @dataclass

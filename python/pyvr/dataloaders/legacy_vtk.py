@@ -7,7 +7,7 @@ from typing import Optional
 
 import numpy as np
 
-from .image import FileFormatError, GridImage, check_shape, check_spacing
+from .image import GridImage, Malformed, check_shape, check_spacing, names_file
 
 _TYPES = {
     "unsigned_char": "u1", "char": "i1", "short": "i2", "unsigned_short": "u2", "int": "i4",
@@ -17,9 +17,6 @@ _TYPES = {
     "vtktypefloat32": "f4", "vtktypefloat64": "f8",
 }
 
-
-class _Bad(Exception):
-    pass
 
 
 class _Cursor:
@@ -50,7 +47,7 @@ class _Cursor:
     def need(self, what: str) -> str:
         t = self.token()
         if t is None:
-            raise _Bad(f"the file ends where {what} should be")
+            raise Malformed(f"the file ends where {what} should be")
         return t
 
     def numbers(self, n: int, what: str, kind=float):
@@ -60,7 +57,7 @@ class _Cursor:
             try:
                 vals.append(kind(t))
             except ValueError:
-                raise _Bad(f"{what}: {t!r} is not a number") from None
+                raise Malformed(f"{what}: {t!r} is not a number") from None
         return vals
 
     def binary(self, nbytes: int, what: str) -> memoryview:
@@ -69,7 +66,7 @@ class _Cursor:
         if nl >= 0:
             self.pos += nl + 1
         if len(self.buf) - self.pos < nbytes:
-            raise _Bad(f"{what} is cut short: {len(self.buf) - self.pos} of {nbytes} bytes")
+            raise Malformed(f"{what} is cut short: {len(self.buf) - self.pos} of {nbytes} bytes")
         out = self.buf[self.pos:self.pos + nbytes]
         self.pos += nbytes
         return out
@@ -79,7 +76,7 @@ class _Cursor:
         try:
             return np.array(vals, dtype=dtype)
         except OverflowError:
-            raise _Bad(f"{what} holds values outside {dtype.name}") from None
+            raise Malformed(f"{what} holds values outside {dtype.name}") from None
 
 
 def load_legacy_vtk(path, array: Optional[str] = None) -> GridImage:
@@ -87,21 +84,19 @@ def load_legacy_vtk(path, array: Optional[str] = None) -> GridImage:
     legacy ``.vtk`` STRUCTURED_POINTS file. ``data[i, j, k]`` lies at
     ``origin + (i, j, k) * spacing``, axis 0 along VTK's x."""
     path = str(path)
-    try:
+    with names_file(path):
         return _read(path, array)
-    except _Bad as e:
-        raise FileFormatError(f"{path}: {e}") from None
 
 
 def _read(path: str, array: Optional[str]) -> GridImage:
     with open(path, "rb") as f:
         cur = _Cursor(f.read())
     if not cur.line().lower().startswith("# vtk datafile"):
-        raise _Bad("not a legacy VTK file (no '# vtk DataFile' line)")
+        raise Malformed("not a legacy VTK file (no '# vtk DataFile' line)")
     cur.line()  # title
     encoding = cur.line().upper()
     if encoding not in ("ASCII", "BINARY"):
-        raise _Bad(f"the third line must be ASCII or BINARY, got {encoding!r}")
+        raise Malformed(f"the third line must be ASCII or BINARY, got {encoding!r}")
     dims = spacing = None
     origin = [0.0, 0.0, 0.0]
     npoints = None
@@ -115,7 +110,7 @@ def _read(path: str, array: Optional[str]) -> GridImage:
         if key == "DATASET":
             kind = cur.need("the dataset type").upper()
             if kind != "STRUCTURED_POINTS":
-                raise _Bad(f"DATASET {kind} is not supported (only STRUCTURED_POINTS)")
+                raise Malformed(f"DATASET {kind} is not supported (only STRUCTURED_POINTS)")
         elif key == "DIMENSIONS":
             dims = cur.numbers(3, "DIMENSIONS", int)
         elif key in ("SPACING", "ASPECT_RATIO"):
@@ -126,11 +121,11 @@ def _read(path: str, array: Optional[str]) -> GridImage:
             (npoints,) = cur.numbers(1, "POINT_DATA", int)
         elif key in ("SCALARS", "VECTORS", "NORMALS"):
             if dims is None or npoints is None:
-                raise _Bad(f"{key} comes before DIMENSIONS and POINT_DATA")
+                raise Malformed(f"{key} comes before DIMENSIONS and POINT_DATA")
             name = cur.need(f"the {key} name")
             vtype = cur.need(f"the type of {name!r}").lower()
             if vtype not in _TYPES:
-                raise _Bad(f"data type {vtype!r} of {name!r} is not one of {sorted(set(_TYPES))}")
+                raise Malformed(f"data type {vtype!r} of {name!r} is not one of {sorted(set(_TYPES))}")
             comps = 3
             if key == "SCALARS":
                 save = cur.pos
@@ -149,7 +144,7 @@ def _read(path: str, array: Optional[str]) -> GridImage:
             shape = check_shape(path, dims, dtype)
             count = npoints * comps
             if npoints != shape[0] * shape[1] * shape[2]:
-                raise _Bad(f"POINT_DATA {npoints} disagrees with DIMENSIONS {dims}")
+                raise Malformed(f"POINT_DATA {npoints} disagrees with DIMENSIONS {dims}")
             check_shape(path, (count, 1, 1), dtype)
             want = key == "SCALARS" and comps == 1 and (array is None or name == array) and found is None
             seen.append(name)
@@ -163,15 +158,15 @@ def _read(path: str, array: Optional[str]) -> GridImage:
         elif key in ("CELL_DATA", "FIELD", "LOOKUP_TABLE", "COLOR_SCALARS", "TEXTURE_COORDINATES", "TENSORS"):
             if found is not None:
                 break
-            raise _Bad(f"section {key} is not supported before the point scalars")
+            raise Malformed(f"section {key} is not supported before the point scalars")
         else:
-            raise _Bad(f"unexpected keyword {key!r}")
+            raise Malformed(f"unexpected keyword {key!r}")
         if found is not None and array is None:
             break
     if dims is None:
-        raise _Bad("no DIMENSIONS")
+        raise Malformed("no DIMENSIONS")
     if found is None:
-        raise _Bad(f"no point scalars named {array!r}; arrays: {seen}" if array else "no point scalars")
+        raise Malformed(f"no point scalars named {array!r}; arrays: {seen}" if array else "no point scalars")
     name, values, shape = found
     # x fastest in the file: a transposed view (Fortran order), converted
     # to native byte order in the one copy the file's buffer needs anyway.
@@ -180,5 +175,5 @@ def _read(path: str, array: Optional[str]) -> GridImage:
     sp = check_spacing(path, spacing if spacing is not None else [1.0, 1.0, 1.0])
     org = np.asarray(origin, np.float64)
     if not np.all(np.isfinite(org)):
-        raise _Bad(f"ORIGIN {origin} is not finite")
+        raise Malformed(f"ORIGIN {origin} is not finite")
     return GridImage(data, sp, org, Path(path).stem, "vtk", extra={"array": name})
