@@ -37,7 +37,9 @@ class BaseTransferFunction(ABC):
     def value_range(self) -> Optional[Tuple[float, float]]:
         """The (low, high) data values this function's [0, 1] domain spans,
         or None (the volume's value_range, else pyvr's rule). See
-        :mod:`pyvr.transferfunctions.value_range`."""
+        :mod:`pyvr.transferfunctions.value_range`. Not the ``value_range``
+        argument of ``ColorTransferFunction.from_colormap`` (pyvr's), which
+        places the colormap inside [0, 1]."""
         return getattr(self, "_value_range", None)
 
     @value_range.setter
