@@ -212,7 +212,7 @@ def test_camera_fit_frames_the_box_at_any_scale():
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # pyvr's "step_size is very large" note, meant for [-1, 1] boxes
             cfg = RenderConfig(step_size=0.01 * s, max_steps=1000, reference_step_size=0.01 * s)
-        r = VolumeRenderer(W, H, config=cfg)
+            r = VolumeRenderer(W, H, config=cfg)
         r.load_volume(vol)
         r.set_camera(Camera.fit(vol, azimuth=0.4, elevation=0.2))
         r.set_transfer_functions(ColorTransferFunction(), OpacityTransferFunction.linear(0, 0.4))

@@ -107,7 +107,7 @@ def check_spacing(path, spacing) -> np.ndarray:
 
 def to_volume(image: GridImage, *, box: str = "unit", normals: bool = False,
               value_range="data") -> Volume:
-    """A Volume of ``image``'s voxels (not copied when already contiguous).
+    """A Volume of ``image``'s voxels (the array itself, never copied).
 
     box: ``"unit"`` (default) scales the physical box, keeping its
     proportions, so that its longest side spans [-1, 1] and centres it at the

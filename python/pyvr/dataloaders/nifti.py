@@ -11,8 +11,8 @@ from .image import FileFormatError, GridImage, check_shape, check_spacing
 
 def load_nifti(path, *, index: Optional[int] = None) -> GridImage:
     """Reads a NIfTI image reoriented to RAS+ (nibabel's closest canonical
-    orientation), so axis 0 runs to the patient's right-to-left... precisely:
-    world x = R, y = A, z = S, as scanners' world coordinates are. Spacing is
+    orientation): axis 0 increases towards the patient's right, axis 1
+    anterior, axis 2 superior, as scanners' world coordinates do. Spacing is
     the voxel size, origin the first voxel's centre from the affine (after
     reorientation), units the header's spatial unit. Scaling (scl_slope,
     scl_inter) is applied; unscaled integer data keeps its type. A 4-D image
@@ -39,8 +39,6 @@ def load_nifti(path, *, index: Optional[int] = None) -> GridImage:
     img = nib.as_closest_canonical(img)
     check_shape(path, img.shape, img.get_data_dtype())
     data = np.asanyarray(img.dataobj)
-    if isinstance(data, np.memmap):
-        data = np.array(data)
     affine = img.affine
     spacing = check_spacing(path, np.sqrt((affine[:3, :3] ** 2).sum(axis=0)))
     units = img.header.get_xyzt_units()[0]

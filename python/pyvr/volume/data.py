@@ -162,8 +162,8 @@ def data_range(data: np.ndarray) -> Tuple[float, float]:
     if a.dtype.kind in "biu":
         lo, hi = float(a.min()), float(a.max())
     else:
-        with np.errstate(invalid="ignore"):
-            finite = a[np.isfinite(a)] if not np.all(np.isfinite(a)) else a
+        mask = np.isfinite(a)
+        finite = a if mask.all() else a[mask]
         if finite.size == 0:
             return (0.0, 1.0)
         lo, hi = float(finite.min()), float(finite.max())
