@@ -31,9 +31,10 @@ if [ ! -x .venv/bin/python ]; then
 fi
 echo "== installing Python packages"
 .venv/bin/python -m pip install -q --upgrade pip
-# The file-format extras (nifti, nrrd, dicom, tiff, zarr) are what the loader tests read and write.
+# The file-format extras (nifti, nrrd, dicom, tiff, zarr) are what the loader tests read and write;
+# tqdm, imageio(-ffmpeg), jupyter_rfb and the kernel packages are what the animation and notebook tests use.
 .venv/bin/python -m pip install -q "maturin>=1.7,<2" numpy scipy pillow matplotlib moderngl pytest hypothesis \
-    nibabel pynrrd pydicom tifffile zarr
+    nibabel pynrrd pydicom tifffile zarr tqdm imageio imageio-ffmpeg jupyter_rfb ipywidgets nbclient nbformat ipykernel
 
 echo "== building pyvr (release)"
 start=$(date +%s)

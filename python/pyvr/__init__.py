@@ -6,6 +6,7 @@ Pillow and moderngl are imported when a feature needs them.
 """
 
 from . import camera, dataloaders, datasets, lighting, moderngl_renderer, transferfunctions, volume
+from .animation import save_animation
 from .config import RenderConfig
 from .dataloaders import load
 from .renderer import VolumeRenderer
@@ -23,4 +24,5 @@ __all__ = [
     "RenderConfig",
     "VolumeRenderer",
     "load",
+    "save_animation",
 ]

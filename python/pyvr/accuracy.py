@@ -205,31 +205,25 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: int = 512,
     budget = (0.75 if scale == 1.0 else 0.5) * max_error_levels
     size = (max(1, round(w0 * scale)), max(1, round(h0 * scale)))
     longest = feats["longest_chord"]
-    camera = renderer._camera_args or renderer._default_camera_args()
 
     def pilot_image(h):
-        img, _ = renderer._engine.render(camera, renderer._light_args, _exact(cfg, h, longest))
-        return img
+        return renderer.render(dtype=np.float32, premultiplied=True, size=size, config=_exact(cfg, h, longest))
 
     h_fine = max(initial_step(feats, cfg.reference_step_size) / 4, feats["spacing"] / 16)
-    renderer._engine.resize(*size)
-    try:
-        for attempt in range(4):
-            fine = pilot_image(h_fine)
-            h, err = h_fine, 0.0
-            cand, fails = h_fine, 0
-            while cand * growth <= longest and fails < 2:
-                cand *= growth
-                e = float(np.abs(pilot_image(cand) - fine).max() * LEVELS)
-                if e > budget:
-                    fails += 1
-                else:
-                    h, err, fails = cand, e, 0
-            if h > h_fine or attempt == 3:
-                break
-            h_fine /= 2
-    finally:
-        renderer._engine.resize(w0, h0)
+    for attempt in range(4):
+        fine = pilot_image(h_fine)
+        h, err = h_fine, 0.0
+        cand, fails = h_fine, 0
+        while cand * growth <= longest and fails < 2:
+            cand *= growth
+            e = float(np.abs(pilot_image(cand) - fine).max() * LEVELS)
+            if e > budget:
+                fails += 1
+            else:
+                h, err, fails = cand, e, 0
+        if h > h_fine or attempt == 3:
+            break
+        h_fine /= 2
     threshold = 1.0 - 0.2 * max_error_levels / LEVELS
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)

@@ -10,12 +10,12 @@ light from their position; any volume shape renders.
 """
 
 import warnings
-from typing import Optional
+from typing import Iterator, Optional
 
 import numpy as np
 
 from . import _core
-from .camera import Camera
+from .camera import Camera, CameraPath
 from .config import RenderConfig
 from .lighting import Light
 from .transferfunctions import ColorTransferFunction, OpacityTransferFunction
@@ -55,6 +55,61 @@ def _finite_vec(name, v):
     if a.shape != (3,) or not np.all(np.isfinite(a)):
         raise ValueError(f"{name} must be three finite numbers, got {v!r}")
     return (float(a[0]), float(a[1]), float(a[2]))
+
+
+def _camera_tuple(camera: Camera):
+    position, up = camera.get_camera_vectors()
+    return (_vec(position), _vec(camera.target), _vec(up), float(camera.fov))
+
+
+def _light_tuple(light: Light):
+    return (_vec(light.position), _vec(light.target), float(light.ambient_intensity),
+            float(light.diffuse_intensity), light.kind)
+
+
+def _path_cameras(path, n_frames, endpoint):
+    if isinstance(path, CameraPath):
+        if n_frames is None:
+            raise TypeError("render_path needs n_frames with a CameraPath: render_path(path, n_frames)")
+        return path.cameras(n_frames, endpoint=endpoint)
+    if isinstance(path, Camera) or not hasattr(path, "__iter__"):
+        raise TypeError(f"path must be a CameraPath or a sequence of Camera, got {type(path).__name__}")
+    cameras = list(path)
+    if n_frames is not None:
+        raise TypeError("n_frames is for a CameraPath; a sequence of cameras is rendered as given")
+    for i, c in enumerate(cameras):
+        if not isinstance(c, Camera):
+            raise TypeError(f"path item {i} must be a Camera, got {type(c).__name__}")
+    if not cameras:
+        raise ValueError("path holds no cameras")
+    return cameras
+
+
+def _progress(progress, total):
+    if progress is False:
+        return None
+    try:
+        from tqdm.auto import tqdm
+    except ImportError:
+        if progress:
+            raise ImportError("progress bars need tqdm: pip install 'pyvr[progress]'") from None
+        return None
+    return tqdm(total=total, unit="frame", desc="render_path")
+
+
+def _check_size(size):
+    if size is None:
+        return None
+    try:
+        w, h = size
+    except (TypeError, ValueError):
+        raise TypeError(f"size must be (width, height), got {size!r}") from None
+    for name, v in (("width", w), ("height", h)):
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
+            raise TypeError(f"size {name} must be an integer, got {type(v).__name__}")
+        if v < 1:
+            raise ValueError(f"size {name} must be at least 1, got {v}")
+    return (int(w), int(h))
 
 
 def _straight(img: np.ndarray) -> np.ndarray:
@@ -171,22 +226,23 @@ class VolumeRenderer:
         """Use this camera; later changes to the object need another set_camera."""
         if not isinstance(camera, Camera):
             raise TypeError(f"Expected Camera instance, got {type(camera)}")
-        position, up = camera.get_camera_vectors()
-        self._camera_args = (_vec(position), _vec(camera.target), _vec(up), float(camera.fov))
+        self._camera_args = _camera_tuple(camera)
         self.camera = camera
+        self._follow(camera)
+
+    def _follow(self, camera: Optional[Camera]) -> None:
+        """A camera-linked light moves with the camera the frame uses."""
+        if camera is not None and self.light.is_linked:
+            self.light.update_from_camera(camera)
+            self._light_args = _light_tuple(self.light)
 
     def set_light(self, light: Light) -> None:
         if not isinstance(light, Light):
             raise TypeError(f"Expected Light instance, got {type(light)}")
         light.validate()
-        self._light_args = (
-            _vec(light.position),
-            _vec(light.target),
-            float(light.ambient_intensity),
-            float(light.diffuse_intensity),
-            getattr(light, "_kind", "directional"),
-        )
         self.light = light
+        self._light_args = _light_tuple(light)
+        self._follow(getattr(self, "camera", None))
 
     def set_transfer_functions(self, color_transfer_function, opacity_transfer_function, size: Optional[int] = None,
                                *, value_range=None) -> None:
@@ -303,14 +359,23 @@ class VolumeRenderer:
         return self._engine.counters()
 
     # -- frames ----------------------------------------------------------
-    def _render_float(self) -> np.ndarray:
+    def _render_float(self, size=None, config: Optional[RenderConfig] = None) -> np.ndarray:
         if self.volume is None:
             raise RuntimeError("no volume loaded: call load_volume() before render()")
         if not self._has_tf:
             self.set_transfer_functions(ColorTransferFunction(), OpacityTransferFunction())
-        cfg = self._config_snapshot
-        camera = self._camera_args or self._default_camera_args()  # pyvr had no default camera
-        img, stats = self._engine.render(camera, self._light_args, cfg)
+        cfg = self._config_snapshot if config is None else config
+        size = (self.width, self.height) if size is None else size
+        if (self._engine.width, self._engine.height) != size:
+            # Output buffers only; the volume, table and pipelines stay.
+            self._engine.resize(*size)
+        if self._camera_args is None:
+            camera = self._default_camera()  # pyvr had no default camera
+            self._follow(camera)
+            camera_args = _camera_tuple(camera)
+        else:
+            camera_args = self._camera_args
+        img, stats = self._engine.render(camera_args, self._light_args, cfg)
         self.last_frame_stats = stats
         needed = stats["truncated_needed"]
         if needed:
@@ -337,7 +402,7 @@ class VolumeRenderer:
         return img
 
     def render(self, *, dtype=np.uint8, premultiplied: bool = False, origin: str = "lower",
-               background=None) -> np.ndarray:
+               background=None, size: Optional[tuple] = None, config: Optional[RenderConfig] = None) -> np.ndarray:
         """Render a frame as a C-contiguous (H, W, 4) array.
 
         dtype: np.uint8 (default) or np.float32. premultiplied: return colour
@@ -346,6 +411,10 @@ class VolumeRenderer:
         background: an RGB colour (three numbers in [0, 1], or a name such as
         "white" when matplotlib is installed) to composite the frame over;
         the result is opaque. Default None: transparent, straight RGBA.
+        size: (width, height) to render this frame at instead of the
+        renderer's own (the same view, e.g. a cheap preview while a user
+        drags); config: a RenderConfig for this frame only. Neither changes
+        the renderer's settings.
         """
         bg = None if background is None else _colour(background)
         if origin not in ("lower", "upper"):
@@ -353,7 +422,12 @@ class VolumeRenderer:
         dt = np.dtype(dtype)
         if dt not in (np.dtype(np.uint8), np.dtype(np.float32)):
             raise ValueError(f"dtype must be uint8 or float32, got {dt}")
-        img = self._render_float()
+        size = _check_size(size)
+        if config is not None:
+            if not isinstance(config, RenderConfig):
+                raise TypeError(f"Expected RenderConfig instance, got {type(config)}")
+            config.validate()
+        img = self._render_float(size, config)
         if bg is not None:
             # Premultiplied colour over an opaque background: C + (1 - A) B.
             img[..., :3] += (1.0 - img[..., 3:4]) * np.asarray(bg, np.float32)
@@ -396,7 +470,12 @@ class VolumeRenderer:
             raise TypeError(f"Expected RenderConfig instance, got {type(cfg)}")
         if not self._has_tf:
             self.set_transfer_functions(ColorTransferFunction(), OpacityTransferFunction())
-        camera = self._camera_args or self._default_camera_args()
+        if self._camera_args is None:
+            cam = self._default_camera()
+            self._follow(cam)
+            camera = _camera_tuple(cam)
+        else:
+            camera = self._camera_args
         width, height = (self.width, self.height) if size is None else (int(size[0]), int(size[1]))
         if width < 1 or height < 1:
             raise ValueError(f"size must be two positive integers, got {size!r}")
@@ -432,11 +511,65 @@ class VolumeRenderer:
             return None
         return np.ascontiguousarray(d[::-1]) if origin == "upper" else d
 
-    def _default_camera_args(self):
+    def _default_camera(self) -> Camera:
         """With no camera set, a front view that frames the whole volume."""
-        cam = Camera.fit(self.volume, aspect=self.width / self.height)
-        position, up = cam.get_camera_vectors()
-        return (_vec(position), _vec(cam.target), _vec(up), float(cam.fov))
+        return Camera.fit(self.volume, aspect=self.width / self.height)
+
+    def render_path(self, path, n_frames: Optional[int] = None, *, endpoint: bool = True, progress=None,
+                    origin: str = "upper", background=None, dtype=np.uint8) -> Iterator[np.ndarray]:
+        """Render a camera path frame by frame: a generator of (H, W, 4)
+        arrays, so long animations stream (``pyvr.save_animation`` writes
+        them to GIF or MP4 as they come).
+
+        path: a ``CameraPath`` (``n_frames`` cameras evenly spaced along it;
+        ``endpoint=False`` leaves out the last, for loops) or a sequence of
+        ``Camera`` (rendered as given; ``n_frames`` must then be None).
+        progress: show a tqdm progress bar; None (default) shows one when
+        tqdm is installed. origin defaults to "upper" (row 0 at the top, as
+        image and video files store frames); background and dtype are as in
+        ``render``. A camera-linked light follows each frame's camera. The
+        renderer's own camera (and linked light) is restored when the
+        generator finishes, fails, is closed or is interrupted with Ctrl-C.
+        """
+        cameras = _path_cameras(path, n_frames, endpoint)
+        if self.volume is None:
+            raise RuntimeError("no volume loaded: call load_volume() before render_path()")
+        bar = _progress(progress, len(cameras))
+        # The checks above run now; the frames when iterated.
+        return self._frames(cameras, bar, dict(origin=origin, background=background, dtype=dtype))
+
+    def _frames(self, cameras, bar, options):
+        saved = (self.camera, self._camera_args, self.light.position, self.light.target, self._light_args)
+        try:
+            for cam in cameras:
+                self.set_camera(cam)
+                yield self.render(**options)
+                if bar is not None:
+                    bar.update(1)
+        finally:
+            if bar is not None:
+                bar.close()
+            self.camera, self._camera_args = saved[0], saved[1]
+            self.light.position, self.light.target, self._light_args = saved[2], saved[3], saved[4]
+
+    def _repr_png_(self) -> Optional[bytes]:
+        """Jupyter shows a renderer as its current frame (PNG, top row first);
+        None (text repr) until a volume is loaded."""
+        if self.volume is None:
+            return None
+        try:
+            from PIL import Image
+        except ImportError:
+            return None
+        import io
+
+        buf = io.BytesIO()
+        Image.fromarray(self.render(origin="upper"), "RGBA").save(buf, format="PNG")
+        return buf.getvalue()
+
+    def __repr__(self) -> str:
+        vol = "no volume" if self.volume is None else f"volume {self.volume.shape}"
+        return f"VolumeRenderer({self.width}x{self.height}, {vol}, device={self.device!r})"
 
     def render_to_pil(self, data=None):
         """The frame as a PIL RGBA image, top row at the top."""

@@ -124,12 +124,22 @@ def get_camera_pos_from_params(params: Camera):
     )
 
 
-def _wrap(a: float) -> float:
-    return ((a + np.pi) % (2 * np.pi)) - np.pi
+def _check_frames(n_frames) -> None:
+    if isinstance(n_frames, bool) or not isinstance(n_frames, (int, np.integer)):
+        raise TypeError(f"n_frames must be an integer, got {type(n_frames).__name__}")
+    if n_frames < 1:
+        raise ValueError("n_frames must be at least 1")
 
 
 class CameraPath:
-    """Keyframed camera animation with linear interpolation (shortest angles)."""
+    """Keyframed camera animation: every parameter, angles included, is
+    interpolated linearly between neighbouring keyframes.
+
+    Angles are interpolated as the numbers given, not the shortest way
+    round, so keyframes at azimuth 0 and 2*pi turn a full circle (pyvr
+    0.4.1 wrapped both to the same angle and stood still); to go the short
+    way from 0 to 3*pi/2, give -pi/2. ``CameraPath.orbit`` builds a turn.
+    """
 
     def __init__(self, keyframes: List[Camera]):
         if len(keyframes) < 2:
@@ -149,9 +159,33 @@ class CameraPath:
 
     @staticmethod
     def _lerp_angle(a1, a2, t):
-        a1, a2 = _wrap(a1), _wrap(a2)
-        diff = _wrap(a2 - a1)
-        return a1 + diff * t
+        return float(a1) + (float(a2) - float(a1)) * t
+
+    @classmethod
+    def orbit(cls, camera: Camera, turns: float = 1.0, keyframes: int = 2) -> "CameraPath":
+        """A path that turns ``camera`` about its target by ``turns`` full
+        circles of azimuth (negative: the other way), everything else fixed.
+        The first and last cameras coincide for whole turns, so a looping
+        animation should leave out the last frame."""
+        if not is_number(turns) or not np.isfinite(turns) or turns == 0:
+            raise ValueError(f"turns must be a finite non-zero number, got {turns!r}")
+        if isinstance(keyframes, bool) or not isinstance(keyframes, (int, np.integer)) or keyframes < 2:
+            raise ValueError(f"keyframes must be an integer of at least 2, got {keyframes!r}")
+        frames = []
+        for i in range(keyframes):
+            c = camera.copy()
+            c.azimuth = float(camera.azimuth) + 2 * np.pi * float(turns) * i / (keyframes - 1)
+            frames.append(c)
+        return cls(frames)
+
+    def cameras(self, n_frames: int, *, endpoint: bool = True) -> List[Camera]:
+        """``n_frames`` cameras evenly spaced in t; ``endpoint=False`` leaves
+        out t = 1 (for loops whose last keyframe repeats the first)."""
+        _check_frames(n_frames)
+        if n_frames == 1:
+            return [self.keyframes[0].copy()]
+        d = (n_frames - 1) if endpoint else n_frames
+        return [self.interpolate(i / d) for i in range(n_frames)]
 
     def interpolate(self, t: float) -> Camera:
         if not (0.0 <= t <= 1.0):
@@ -179,11 +213,7 @@ class CameraPath:
         )
 
     def generate_frames(self, n_frames: int) -> List[Camera]:
-        if n_frames < 1:
-            raise ValueError("n_frames must be at least 1")
-        if n_frames == 1:
-            return [self.keyframes[0].copy()]
-        return [self.interpolate(i / (n_frames - 1)) for i in range(n_frames)]
+        return self.cameras(n_frames)
 
 
 class CameraController:

@@ -5,7 +5,7 @@ from typing import Optional
 
 import numpy as np
 
-from ._extras import require
+from .._extras import require
 from .image import FileFormatError, GridImage, check_shape, check_spacing
 
 

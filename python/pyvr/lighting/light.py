@@ -106,6 +106,12 @@ class Light:
         return self._is_linked
 
     def link_to_camera(self, azimuth_offset=0.0, elevation_offset=0.0, distance_offset=0.0) -> "Light":
+        """Follow the camera from now on, turned by these offsets (see
+        update_from_camera). pyvr 0.4.1 stored the offsets and ignored them."""
+        for name, v in (("azimuth_offset", azimuth_offset), ("elevation_offset", elevation_offset),
+                        ("distance_offset", distance_offset)):
+            if not is_number(v) or not np.isfinite(v):
+                raise ValueError(f"{name} must be a finite number, got {v!r}")
         self._is_linked = True
         self._camera_offsets = {"azimuth": azimuth_offset, "elevation": elevation_offset, "distance": distance_offset}
         return self
@@ -116,7 +122,12 @@ class Light:
         return self
 
     def update_from_camera(self, camera) -> None:
-        """Headlight: put the light at the camera, aimed at its target."""
+        """Put the light where the camera is, turned by the link's offsets
+        (azimuth and elevation in radians, distance added to the camera's),
+        aimed at the camera's target. With zero offsets it is a headlight.
+
+        A renderer does this itself for a linked light whenever its camera
+        changes (``set_camera``, ``render_path``, the interfaces)."""
         from ..camera import Camera
 
         if not self._is_linked:
@@ -125,6 +136,14 @@ class Light:
             raise ValueError("Camera offsets not set. Call link_to_camera() first.")
         if not isinstance(camera, Camera):
             raise ValueError("camera must be a Camera instance")
+        o = self._camera_offsets
+        if o["azimuth"] or o["elevation"] or o["distance"]:
+            moved = camera.copy()
+            moved.azimuth = float(camera.azimuth) + float(o["azimuth"])
+            moved.elevation = float(camera.elevation) + float(o["elevation"])
+            # A light closer than the target would flip; keep it in front.
+            moved.distance = max(float(camera.distance) + float(o["distance"]), 1e-6 * float(camera.distance))
+            camera = moved
         pos, _ = camera.get_camera_vectors()
         self.position = np.array(pos, dtype=np.float64)
         self.target = np.array(camera.target, copy=True)

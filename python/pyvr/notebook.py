@@ -1,0 +1,152 @@
+"""An interactive view of a VolumeRenderer in Jupyter.
+
+>>> from pyvr.notebook import VolumeView
+>>> VolumeView(renderer)          # last expression of a cell: shows the view
+
+Drag with the left button to rotate (trackball), scroll to zoom. While the
+mouse drags or the wheel turns, frames are rendered cheaper (see
+``pyvr.interaction.DragQuality``) and full quality returns on release, or
+0.5 s after the last scroll. The view is a ``jupyter_rfb.RemoteFrameBuffer``
+(an ipywidgets widget): ``pip install 'pyvr[notebook]'``.
+
+Without a live notebook frontend (nbconvert, a script) nothing is drawn by
+itself; ``view.draw()`` renders a frame now and ``view.snapshot()`` shows it.
+A plain renderer also shows itself as a still image (``_repr_png_``).
+"""
+
+import time
+from collections import deque
+from typing import Optional
+
+import numpy as np
+
+from ._extras import require
+
+require("jupyter_rfb", "notebook", "pyvr.notebook")
+
+from jupyter_rfb import RemoteFrameBuffer  # noqa: E402
+
+from .camera import Camera, CameraController  # noqa: E402
+from .interaction import DragQuality  # noqa: E402
+from .renderer import VolumeRenderer  # noqa: E402
+
+SCROLL_SETTLE_SECONDS = 0.5
+
+
+class VolumeView(RemoteFrameBuffer):
+    """A notebook widget showing ``renderer``'s frames, turned and zoomed
+    with the mouse. The renderer's volume, transfer functions, config and
+    light are used as they are; the view keeps its own camera
+    (``view.camera``), starting from the renderer's (or a framing one).
+    """
+
+    def __init__(self, renderer: VolumeRenderer, camera: Optional[Camera] = None, *, target_fps: float = 10.0,
+                 **kwargs):
+        if not isinstance(renderer, VolumeRenderer):
+            raise TypeError(f"Expected VolumeRenderer instance, got {type(renderer)}")
+        if renderer.get_volume() is None:
+            raise RuntimeError("no volume loaded: call renderer.load_volume() before making a view")
+        if camera is not None and not isinstance(camera, Camera):
+            raise TypeError(f"Expected Camera instance, got {type(camera)}")
+        kwargs.setdefault("css_width", f"{renderer.width}px")
+        kwargs.setdefault("css_height", f"{renderer.height}px")
+        super().__init__(**kwargs)
+        start = camera or renderer.get_camera() or Camera.fit(renderer.get_volume(),
+                                                              aspect=renderer.width / renderer.height)
+        self.renderer = renderer
+        self.controller = CameraController(start)
+        self.drag_quality = DragQuality(renderer, target_fps=target_fps)
+        self._dragging = False
+        self._last_pos = None
+        self._interacting = False
+        self._event_time: Optional[float] = None
+        self._settle = None
+        # Event-to-pixels seconds of the latest frames while interacting and after.
+        self.drag_latencies: deque = deque(maxlen=200)
+        self.release_latencies: deque = deque(maxlen=200)
+
+    @property
+    def camera(self) -> Camera:
+        """The view's camera (the controller's; changes show on the next frame)."""
+        return self.controller.params
+
+    # -- events ------------------------------------------------------------
+    def handle_event(self, event: dict) -> None:
+        kind = event.get("type", event.get("event_type"))
+        if kind == "pointer_down" and event.get("button", 1) == 1:
+            self._event_time = time.perf_counter()
+            self._dragging = True
+            self._last_pos = (float(event["x"]), float(event["y"]))
+            self._begin()
+        elif kind == "pointer_move" and self._dragging:
+            self._event_time = time.perf_counter()
+            x, y = float(event["x"]), float(event["y"])
+            x0, y0 = self._last_pos
+            # Browser y grows downward, as the trackball expects.
+            self.controller.trackball(x - x0, y - y0, self.renderer.width, self.renderer.height)
+            self._last_pos = (x, y)
+            self.request_draw()
+        elif kind == "pointer_up" and self._dragging:
+            self._event_time = time.perf_counter()
+            self._dragging = False
+            self._end()
+        elif kind == "wheel":
+            self._event_time = time.perf_counter()
+            dy = float(event.get("dy", 0.0))
+            if dy:
+                self.controller.zoom(1.1 if dy > 0 else 0.9)
+                self._begin()
+                self.request_draw()
+                self._settle_later()
+        elif kind == "resize":
+            self.request_draw()
+
+    def _begin(self) -> None:
+        if not self._interacting:
+            self._interacting = True
+            self.drag_quality.start()
+
+    def _end(self) -> None:
+        self._interacting = False
+        self.request_draw()
+
+    def _settle_later(self) -> None:
+        import asyncio
+
+        if self._settle is not None:
+            self._settle.cancel()
+        try:
+            loop = asyncio.get_running_loop()
+        except RuntimeError:
+            return
+        self._settle = loop.call_later(SCROLL_SETTLE_SECONDS, self._scroll_settled)
+
+    def _scroll_settled(self) -> None:
+        self._settle = None
+        if not self._dragging:
+            self._event_time = time.perf_counter()
+            self._end()
+
+    # -- frames ------------------------------------------------------------
+    def get_frame(self) -> np.ndarray:
+        """The frame for the view's camera: (H, W, 4) uint8, top row first,
+        smaller while the user interacts (the browser stretches it)."""
+        self.renderer.set_camera(self.controller.params)
+        cheap = self._interacting
+        if cheap:
+            img = self.drag_quality.render_drag(origin="upper")
+        else:
+            img = self.drag_quality.render_full(origin="upper")
+        if self._event_time is not None:
+            latency = time.perf_counter() - self._event_time
+            (self.drag_latencies if cheap else self.release_latencies).append(latency)
+            if cheap:
+                self.drag_quality.record(latency)
+            self._event_time = None
+        return img
+
+    def draw(self) -> np.ndarray:
+        """Render a frame now and send it to the view; returns it."""
+        img = self.get_frame()
+        self.send_frame(img)
+        return img
