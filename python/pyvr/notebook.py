@@ -40,14 +40,18 @@ class VolumeView(RemoteFrameBuffer):
     (``view.camera``), starting from the renderer's (or a framing one).
     """
 
-    def __init__(self, renderer: VolumeRenderer, camera: Optional[Camera] = None, *, target_fps: float = 10.0,
-                 **kwargs):
+    def __new__(cls, renderer=None, camera=None, **kwargs):
+        # Checked before the widget exists: a half-built widget fails when collected.
         if not isinstance(renderer, VolumeRenderer):
             raise TypeError(f"Expected VolumeRenderer instance, got {type(renderer)}")
         if renderer.get_volume() is None:
             raise RuntimeError("no volume loaded: call renderer.load_volume() before making a view")
         if camera is not None and not isinstance(camera, Camera):
             raise TypeError(f"Expected Camera instance, got {type(camera)}")
+        return super().__new__(cls)
+
+    def __init__(self, renderer: VolumeRenderer, camera: Optional[Camera] = None, *, target_fps: float = 10.0,
+                 **kwargs):
         kwargs.setdefault("css_width", f"{renderer.width}px")
         kwargs.setdefault("css_height", f"{renderer.height}px")
         super().__init__(**kwargs)

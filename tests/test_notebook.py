@@ -1,0 +1,102 @@
+"""The notebook view (jupyter_rfb) and the example notebook run top to
+bottom in a real kernel, its images checked."""
+
+import base64
+import io
+import os
+import re
+
+import numpy as np
+import pytest
+
+from conftest import SHARED_DATA
+from pyvr import VolumeRenderer
+from pyvr.camera import Camera
+from pyvr.datasets import create_sample_volume
+from pyvr.lighting import Light
+from pyvr.notebook import VolumeView
+from pyvr.volume import Volume
+
+EXAMPLE = os.path.join(os.path.dirname(__file__), "..", "examples", "notebook.ipynb")
+
+
+@pytest.fixture
+def renderer():
+    r = VolumeRenderer(96, 80)
+    r.load_volume(Volume(create_sample_volume(32, "double_sphere")))
+    r.set_camera(Camera.isometric_view())
+    return r
+
+
+def test_view_drag_is_cheap_then_full(renderer):
+    view = VolumeView(renderer)
+    view.drag_quality.target_fps = 1e5  # no frame meets the budget: coarsest drag frames
+    first = view.draw()
+    az0 = view.camera.azimuth
+    view.handle_event({"type": "pointer_down", "x": 40, "y": 40, "button": 1})
+    view.handle_event({"type": "pointer_move", "x": 70, "y": 40, "button": 1})
+    during = view.draw()
+    assert view.camera.azimuth < az0 - 0.1
+    assert during.shape[0] < 80
+    view.handle_event({"type": "pointer_up", "x": 70, "y": 40, "button": 1})
+    after = view.draw()
+    assert after.shape == (80, 96, 4)
+    assert np.abs(after.astype(int) - first.astype(int)).max() > 20
+    assert len(view.drag_latencies) == 1 and len(view.release_latencies) == 1
+    assert np.array_equal(view.snapshot().data, after)
+    # The renderer shows the view's camera now.
+    assert renderer.get_camera() is view.camera
+
+
+def test_view_wheel_zooms_and_linked_light_follows(renderer):
+    renderer.set_light(Light.camera_linked())
+    view = VolumeView(renderer)
+    d0 = view.camera.distance
+    view.handle_event({"type": "wheel", "dx": 0, "dy": -100, "x": 10, "y": 10})
+    assert view.camera.distance == pytest.approx(0.9 * d0)
+    view.draw()
+    pos, _ = view.camera.get_camera_vectors()
+    np.testing.assert_allclose(renderer.get_light().position, pos, atol=1e-5)
+    view._scroll_settled()  # what the 0.5 s timer calls
+    assert view.draw().shape == (80, 96, 4)
+
+
+def test_view_rejects_bad_input():
+    with pytest.raises(TypeError, match="Expected VolumeRenderer"):
+        VolumeView("r")
+    with pytest.raises(RuntimeError, match="no volume loaded"):
+        VolumeView(VolumeRenderer(8, 8))
+
+
+def _png_size(data: bytes):
+    from PIL import Image
+
+    img = Image.open(io.BytesIO(data))
+    return img.size, np.array(img.convert("RGBA"))
+
+
+def test_example_notebook_runs_in_a_kernel(tmp_path, monkeypatch):
+    import nbformat
+    from nbclient import NotebookClient
+
+    monkeypatch.setenv("PYVR_DATA", SHARED_DATA)
+    nb = nbformat.read(EXAMPLE, as_version=4)
+    NotebookClient(nb, timeout=600, kernel_name="python3", resources={"metadata": {"path": str(tmp_path)}}).execute()
+    outputs = [o for c in nb.cells if c.cell_type == "code" for o in c.outputs]
+    assert not [o for o in outputs if o.output_type == "error"]
+    pngs = [base64.b64decode(o.data["image/png"]) for o in outputs if "image/png" in o.get("data", {})]
+    assert len(pngs) == 1  # the renderer, shown as its frame
+    size, img = _png_size(pngs[0])
+    assert size == (384, 384)
+    assert (img[..., 3] > 0).mean() > 0.05 and img[..., :3].std() > 10  # not blank
+    # The view's snapshot after the drag: an <img> holding the full-size frame.
+    html = [o.data["text/html"] for o in outputs if "text/html" in o.get("data", {})]
+    m = re.search(r"base64,([^']+)'", html[0])
+    snap_size, snap = _png_size(base64.b64decode(m.group(1)))
+    assert snap_size == (384, 384) and snap[..., :3].std() > 10
+    text = "".join(o.get("text", "") for o in outputs if o.output_type == "stream")
+    assert "while dragging: (" in text and "after release: (384, 384, 4)" in text
+    assert "24 frames" in text
+    gifs = [o for o in outputs if "image/gif" in o.get("data", {})]
+    assert len(gifs) == 1 and (tmp_path / "orbit.gif").stat().st_size > 1000
+    assert os.path.exists(os.path.join(SHARED_DATA, "fuel.vti")) == ("fuel" in repr(nb.cells[1].outputs[0].data))
