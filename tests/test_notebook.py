@@ -68,7 +68,7 @@ def test_view_rejects_bad_input():
         VolumeView(VolumeRenderer(8, 8))
 
 
-def _png_size(data: bytes):
+def _image(data: bytes):
     from PIL import Image
 
     img = Image.open(io.BytesIO(data))
@@ -86,13 +86,13 @@ def test_example_notebook_runs_in_a_kernel(tmp_path, monkeypatch):
     assert not [o for o in outputs if o.output_type == "error"]
     pngs = [base64.b64decode(o.data["image/png"]) for o in outputs if "image/png" in o.get("data", {})]
     assert len(pngs) == 1  # the renderer, shown as its frame
-    size, img = _png_size(pngs[0])
+    size, img = _image(pngs[0])
     assert size == (384, 384)
     assert (img[..., 3] > 0).mean() > 0.05 and img[..., :3].std() > 10  # not blank
     # The view's snapshot after the drag: an <img> holding the full-size frame.
     html = [o.data["text/html"] for o in outputs if "text/html" in o.get("data", {})]
     m = re.search(r"base64,([^']+)'", html[0])
-    snap_size, snap = _png_size(base64.b64decode(m.group(1)))
+    snap_size, snap = _image(base64.b64decode(m.group(1)))
     assert snap_size == (384, 384) and snap[..., :3].std() > 10
     text = "".join(o.get("text", "") for o in outputs if o.output_type == "stream")
     assert "while dragging: (" in text and "after release: (384, 384, 4)" in text

@@ -16,6 +16,7 @@ cross the whole volume.
 
 import math
 import time
+import warnings
 from typing import Optional, Tuple
 
 import numpy as np
@@ -61,7 +62,11 @@ class DragQuality:
         lo, hi = np.asarray(vol.min_bounds, np.float64), np.asarray(vol.max_bounds, np.float64)
         diagonal = float(np.linalg.norm(hi - lo))
         step = max(float(cfg.step_size), diagonal / self.samples_per_diagonal)
-        return cfg.replace(step_size=step, max_steps=int(math.ceil(diagonal / step)) + 2)
+        with warnings.catch_warnings():
+            # A step that is large in world units (a box in millimetres) is
+            # still 1/96 of the box: no "very large step" note every frame.
+            warnings.simplefilter("ignore", UserWarning)
+            return cfg.replace(step_size=step, max_steps=int(math.ceil(diagonal / step)) + 2)
 
     def size(self) -> Tuple[int, int]:
         """The drag frame's (width, height) at the current level."""

@@ -28,12 +28,10 @@ from .widgets import ColorSelector, ImageDisplay, OpacityEditor, PresetSelector
 _CLEARED_KEYMAPS = ("fullscreen", "home", "back", "forward", "pan", "zoom", "save", "grid", "yscale", "xscale")
 
 HELP = (
-    "image: drag = rotate, scroll = zoom\n"
-    "keys: r reset view, s save image,\n"
-    "f fps, h histogram, l light link,\n"
-    "q auto-quality, t trackball/orbit,\n"
-    "esc deselect, del remove point,\n"
-    "ctrl+w close"
+    "drag: rotate  scroll: zoom  keys: r reset,\n"
+    "s save, f fps, h histogram, l light link,\n"
+    "q auto-quality, t trackball/orbit, esc,\n"
+    "del remove point, ctrl+w close"
 )
 
 
@@ -202,7 +200,6 @@ class InteractiveVolumeRenderer:
             f"preset: {self.state.current_preset_name}   auto-quality: {quality}",
             f"dragging: {self.drag_quality.describe()}",
             f"last frame: {self.drag_quality.last_render_seconds * 1e3:.0f} ms",
-            "",
             HELP,
         ]
         self.info_text.set_text("\n".join(lines))
