@@ -8,6 +8,10 @@ release from dispatch until the full-quality frame and a full figure
 redraw are done. Every event renders (the interface's 0.05 s throttle is
 off), so frames per second while dragging is 1 / mean drag latency.
 
+The drag frame's cost in accuracy is its difference from the full frame
+at the same camera (over black, stretched to the view as displayed), in
+8-bit levels: mean and 99th percentile.
+
 The notebook view (jupyter_rfb) is timed from the event to the frame
 compressed as jupyter_rfb sends it (JPEG while dragging, PNG after
 release); the trip to the browser is not included.
@@ -63,6 +67,17 @@ def dispatch(canvas, name, x, y):
     return time.perf_counter() - t
 
 
+def drag_error(small, full):
+    """How far a drag frame, stretched to the view as the display does
+    (bilinear), is from the full-quality frame: 8-bit levels over RGB."""
+    from PIL import Image
+
+    h, w = full.shape[:2]
+    big = np.asarray(Image.fromarray(small[..., :3]).resize((w, h), Image.BILINEAR), np.float64)
+    d = np.abs(big - full[..., :3].astype(np.float64))
+    return dict(drag_error_mean=float(d.mean()), drag_error_p99=float(np.percentile(d, 99)))
+
+
 def matplotlib_row(volume, preset, moves):
     config = _crossing(getattr(RenderConfig, preset)(), volume)
     ui = InteractiveVolumeRenderer(volume, width=VIEW, height=VIEW, config=config)
@@ -84,12 +99,13 @@ def matplotlib_row(volume, preset, moves):
     lat, frame, _ = drag(moves)
     releases = [drag(2)[2] for _ in range(3)]
     t = time.perf_counter()
-    ui.renderer.render()
+    ref = ui.renderer.render(origin="upper", background=(0, 0, 0))
     full = time.perf_counter() - t
+    err = drag_error(ui.drag_quality.render_drag(origin="upper", background=(0, 0, 0)), ref)
     row = dict(view="matplotlib", preset=preset, drag_ms_median=ms(np.median(lat)), drag_ms_p90=ms(np.percentile(lat, 90)),
                drag_fps=1.0 / float(np.mean(lat)), drag_frame=f"{frame[1]}x{frame[0]}",
                drag_step=ui.drag_quality.config().step_size, release_ms_median=ms(np.median(releases)),
-               full_render_ms=ms(full), step=config.step_size)
+               full_render_ms=ms(full), step=config.step_size, **err)
     matplotlib.pyplot.close(fig)
     return row
 
@@ -148,7 +164,8 @@ def main():
             rows.append(row)
             print(f"{n:>6}^3 {row['view']:>10} {preset:>8} | {row['drag_ms_median']:6.1f} {row['drag_ms_p90']:6.1f} "
                   f"{row['drag_fps']:5.1f} {row['drag_frame']:>10} {row['drag_step']:6.4f} | "
-                  f"{row['release_ms_median']:7.1f} {row['full_render_ms']:11.1f}")
+                  f"{row['release_ms_median']:7.1f} {row['full_render_ms']:11.1f}"
+                  + (f" | error {row['drag_error_mean']:.1f} / {row['drag_error_p99']:.0f}" if "drag_error_mean" in row else ""))
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
                             cwd=os.path.dirname(__file__)).stdout.strip()
     result = {"view": VIEW, "moves": args.moves, "device": device,

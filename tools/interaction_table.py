@@ -20,14 +20,17 @@ def main(path):
           "move (median and 90th percentile), *fps* is 1 / its mean; *drag frame* and *drag step* are what "
           "`DragQuality` chose (the frame is stretched to the view). *Release* is the latency of the "
           "button release: the full-quality frame, plus a full figure redraw for matplotlib (Agg) or PNG "
-          "compression for the notebook view. *Full render* is `render()` alone at the preset.\n")
-    print("| volume | view | preset (step) | drag ms | p90 ms | fps | drag frame | drag step | release ms | full render ms |")
-    print("|---|---|---|---:|---:|---:|---|---:|---:|---:|")
+          "compression for the notebook view. *Full render* is `render()` alone at the preset. *Drag error* is "
+          "the drag frame, stretched to the view as shown, against the full frame at the same camera, over "
+          "black: mean and 99th percentile of |difference| in 8-bit levels of R, G, B.\n")
+    print("| volume | view | preset (step) | drag ms | p90 ms | fps | drag frame | drag step | release ms | full render ms | drag error (mean / p99) |")
+    print("|---|---|---|---:|---:|---:|---|---:|---:|---:|---:|")
     for row in r["rows"]:
         full = "" if math.isnan(row["full_render_ms"]) else f"{row['full_render_ms']:.0f}"
+        err = f"{row['drag_error_mean']:.1f} / {row['drag_error_p99']:.0f}" if "drag_error_mean" in row else ""
         print(f"| {row['volume']}^3 | {row['view']} | {row['preset']} ({row['step']:g}) | {row['drag_ms_median']:.1f} | "
               f"{row['drag_ms_p90']:.1f} | {row['drag_fps']:.1f} | {row['drag_frame']} | {row['drag_step']:.4f} | "
-              f"{row['release_ms_median']:.0f} | {full} |")
+              f"{row['release_ms_median']:.0f} | {full} | {err} |")
 
 
 if __name__ == "__main__":
