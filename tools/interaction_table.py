@@ -22,7 +22,8 @@ def main(path):
           "button release: the full-quality frame, plus a full figure redraw for matplotlib (Agg) or PNG "
           "compression for the notebook view. *Full render* is `render()` alone at the preset. *Drag error* is "
           "the drag frame, stretched to the view as shown, against the full frame at the same camera, over "
-          "black: mean and 99th percentile of |difference| in 8-bit levels of R, G, B.\n")
+          "black: mean and 99th percentile of |difference| in 8-bit levels of R, G, B over the pixels either "
+          "frame covers.\n")
     print("| volume | view | preset (step) | drag ms | p90 ms | fps | drag frame | drag step | release ms | full render ms | drag error (mean / p99) |")
     print("|---|---|---|---:|---:|---:|---|---:|---:|---:|---:|")
     for row in r["rows"]:
