@@ -49,7 +49,10 @@ from pyvr.transferfunctions import ColorTransferFunction, OpacityTransferFunctio
 from pyvr.volume import Volume  # noqa: E402
 
 VIEW = 512
-POINTS = [(0.0, 0.0), (0.2, 0.0), (0.5, 0.6), (1.0, 0.9)]  # opacity: two solid-looking spheres
+# Opacity control points: the interface's default ramp (translucent: every
+# ray crosses the whole box) and one that shows two solid-looking spheres
+# (rays end early).
+TFS = {"ramp": [(0.0, 0.0), (1.0, 1.0)], "solid": [(0.0, 0.0), (0.2, 0.0), (0.5, 0.6), (1.0, 0.9)]}
 
 
 def scene(n):
@@ -81,11 +84,11 @@ def drag_error(small, full):
     return dict(drag_error_mean=float(d.mean()), drag_error_p99=float(np.percentile(d, 99)))
 
 
-def matplotlib_row(volume, preset, moves):
+def matplotlib_row(volume, preset, tf, moves):
     config = _crossing(getattr(RenderConfig, preset)(), volume)
     ui = InteractiveVolumeRenderer(volume, width=VIEW, height=VIEW, config=config)
     ui._min_render_interval = 0.0
-    ui.state.control_points = list(POINTS)
+    ui.state.control_points = list(TFS[tf])
     ui.state.set_colormap("plasma")
     fig = ui._build_figure()
     fig.canvas.draw()
@@ -115,7 +118,7 @@ def matplotlib_row(volume, preset, moves):
     return row
 
 
-def notebook_row(volume, preset, moves):
+def notebook_row(volume, preset, tf, moves):
     from jupyter_rfb._utils import array2compressed
 
     from pyvr.notebook import VolumeView
@@ -123,7 +126,7 @@ def notebook_row(volume, preset, moves):
     r = VolumeRenderer(VIEW, VIEW, config=_crossing(getattr(RenderConfig, preset)(), volume))
     r.load_volume(volume)
     r.set_camera(Camera.isometric_view())
-    r.set_transfer_functions(ColorTransferFunction.from_colormap("plasma"), OpacityTransferFunction(control_points=POINTS))
+    r.set_transfer_functions(ColorTransferFunction.from_colormap("plasma"), OpacityTransferFunction(control_points=TFS[tf]))
     view = VolumeView(r)
 
     def event(e, quality):
@@ -160,14 +163,16 @@ def main():
     rows = []
     device = VolumeRenderer(8, 8).device
     print(f"device: {device}; view {VIEW}x{VIEW}; latencies in ms (median, 90th percentile)")
-    print(f"{'volume':>7} {'view':>10} {'preset':>8} | {'drag':>6} {'p90':>6} {'fps':>5} {'drag frame':>10} "
+    print(f"{'volume':>7} {'tf':>5} {'view':>10} {'preset':>8} | {'drag':>6} {'p90':>6} {'fps':>5} {'drag frame':>10} "
           f"{'step':>6} | {'release':>7} {'full render':>11}")
     for n in args.sizes:
         volume = scene(n)
-        for fn, preset in ((matplotlib_row, "fast"), (matplotlib_row, "balanced"), (notebook_row, "fast")):
-            row = dict(volume=n, **fn(volume, preset, args.moves))
+        for tf, fn, preset in (("ramp", matplotlib_row, "fast"), ("ramp", matplotlib_row, "balanced"),
+                               ("ramp", notebook_row, "fast"), ("solid", matplotlib_row, "balanced"),
+                               ("solid", notebook_row, "fast")):
+            row = dict(volume=n, tf=tf, **fn(volume, preset, tf, args.moves))
             rows.append(row)
-            print(f"{n:>6}^3 {row['view']:>10} {preset:>8} | {row['drag_ms_median']:6.1f} {row['drag_ms_p90']:6.1f} "
+            print(f"{n:>6}^3 {tf:>5} {row['view']:>10} {preset:>8} | {row['drag_ms_median']:6.1f} {row['drag_ms_p90']:6.1f} "
                   f"{row['drag_fps']:5.1f} {row['drag_frame']:>10} {row['drag_step']:6.4f} | "
                   f"{row['release_ms_median']:7.1f} {row['full_render_ms']:11.1f}"
                   + (f" | error {row['drag_error_mean']:.1f} / {row['drag_error_p99']:.0f}" if "drag_error_mean" in row else ""))
