@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Installs everything pyvr needs on a fresh Debian/Ubuntu machine that has
 # Rust (cargo) and Python 3.11+: a software Vulkan driver when no GPU driver
-# is present, Mesa's EGL (for the OpenGL reference renderer in the tests),
+# is present, Mesa's EGL (for the OpenGL reference renderer in the tests), Xvfb
+# (a virtual display for the interface's window test),
 # a virtual environment in .venv, and the release build of pyvr into it.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -15,7 +16,8 @@ for f in /usr/share/vulkan/icd.d/*.json /etc/vulkan/icd.d/*.json; do
     [ -e "$f" ] && have_icd=true
 done
 $have_icd || need+=(mesa-vulkan-drivers)
-for pkg in libvulkan1 libegl1 libegl-mesa0 libgl1-mesa-dri; do
+# xvfb and xauth: the interface test opens a real (Tk) window on a virtual display.
+for pkg in libvulkan1 libegl1 libegl-mesa0 libgl1-mesa-dri xvfb xauth; do
     dpkg -s "$pkg" >/dev/null 2>&1 || need+=("$pkg")
 done
 if [ ${#need[@]} -gt 0 ]; then

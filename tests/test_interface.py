@@ -214,17 +214,23 @@ def test_colormap_and_preset_selectors_by_click(ui):
     assert lit.sum() > 50
     # gray colormap: red, green and blue equal where anything is drawn
     assert np.abs(img[..., 0] - img[..., 1])[lit].max() <= 1 and np.abs(img[..., 1] - img[..., 2])[lit].max() <= 1
+    fast = shown(ui).copy()
     _click_radio(ui, ui.preset_selector, "Balanced")
     assert ui.state.current_preset_name == "balanced"
     assert ui.renderer.get_config().step_size == 0.01
+    finer = shown(ui)
+    assert np.abs(finer.astype(int) - fast.astype(int)).max() >= 1  # half the step: a (slightly) different frame
 
 
 def test_reset_key_and_light_link_key(ui):
+    start = shown(ui).copy()
     drag_image(ui, 0.2)
+    assert not np.array_equal(shown(ui), start)
     key(ui, "r")
     p = ui.camera_controller.params
     assert (p.azimuth, p.elevation, p.distance) == pytest.approx((np.pi / 4, np.pi / 6, 3.0))
     before = shown(ui).copy()
+    assert np.array_equal(before, start)  # the first view again, pixel for pixel
     key(ui, "l")
     light = ui.renderer.get_light()
     assert ui.state.light_linked_to_camera and light.is_linked
@@ -365,3 +371,23 @@ def test_import_pyvr_does_not_load_matplotlib():
     code = "import sys, pyvr; print(any(m.startswith(('matplotlib', 'jupyter_rfb', 'imageio', 'tqdm')) for m in sys.modules))"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "False"
+
+
+def test_real_tk_window_under_xvfb(tmp_path):
+    """The same interface in a real window (TkAgg under Xvfb): blitting on a
+    GUI canvas, and matplotlib's timer restoring full quality after a scroll."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    script = os.path.join(os.path.dirname(__file__), "interface_window.py")
+    env = dict(os.environ, PYVR_CACHE_DIR=str(tmp_path))
+    run = subprocess.run(["xvfb-run", "-a", sys.executable, script], capture_output=True, text=True, timeout=300,
+                         env=env)
+    assert run.returncode == 0, run.stderr[-2000:]
+    seen = json.loads(run.stdout.strip().splitlines()[-1])
+    assert seen["drag_frame"][0] < 128 and seen["release_frame"][:2] == [128, 128]
+    assert seen["scroll_frame"][0] < 128  # cheap while the wheel turns...
+    assert seen["settled_frame"][:2] == [128, 128]  # ...full again when the timer fires
+    assert seen["drawn"] and seen["azimuth"] < np.pi / 4 - 0.05
