@@ -243,6 +243,15 @@ pub enum Shading {
 }
 
 impl Shading {
+    /// The shader's `SHADING` override constant.
+    pub fn code(self) -> u32 {
+        match self {
+            Shading::AmbientOnly => 0,
+            Shading::Normals => 1,
+            Shading::Gradient => 2,
+        }
+    }
+
     pub fn choose(light: &Light, has_normals: bool) -> Shading {
         if light.diffuse == 0.0 {
             Shading::AmbientOnly

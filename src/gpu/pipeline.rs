@@ -3,14 +3,15 @@
 //! a frame only runs the code its scene needs. Variants compile on first use
 //! and stay cached for the life of the process.
 
+use super::bindings;
 use super::context::{GpuContext, GpuError};
+use super::shader;
 use crate::config::{OpacityCorrection, RenderConfig};
 use crate::model::{Model, Order};
 use crate::scene::{LightKind, Shading};
 use std::collections::HashMap;
 use std::sync::Mutex;
 
-pub const SHADER_SOURCE: &str = include_str!("../../shaders/raymarch.wgsl");
 pub const WORKGROUP: u32 = 8;
 
 /// How the volume is stored, as far as the shader cares.
@@ -69,13 +70,8 @@ impl Variant {
     }
 
     fn constants(&self) -> [(&'static str, f64); 11] {
-        let shading = match self.shading {
-            Shading::AmbientOnly => 0.0,
-            Shading::Normals => 1.0,
-            Shading::Gradient => 2.0,
-        };
         [
-            ("SHADING", shading),
+            ("SHADING", self.shading.code() as f64),
             ("POINT_LIGHT", self.point_light as u32 as f64),
             ("EARLY_TERMINATION", self.early_termination as u32 as f64),
             ("POWER_CORRECTION", (self.correction == OpacityCorrection::Power) as u32 as f64),
@@ -163,15 +159,15 @@ impl Pipelines {
         let device = &ctx.device;
         ctx.scoped("compiling the ray-marching shader", || {
             let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some("raymarch.wgsl"),
-                source: wgpu::ShaderSource::Wgsl(SHADER_SOURCE.into()),
+                label: Some("raymarch"),
+                source: wgpu::ShaderSource::Wgsl(shader::source().into()),
             });
             let make = |filterable: bool| {
                 let bind_group = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                     label: Some("raymarch"),
                     entries: &[
                         wgpu::BindGroupLayoutEntry {
-                            binding: 0,
+                            binding: bindings::PARAMS,
                             visibility: wgpu::ShaderStages::COMPUTE,
                             ty: wgpu::BindingType::Buffer {
                                 ty: wgpu::BufferBindingType::Uniform,
@@ -180,17 +176,17 @@ impl Pipelines {
                             },
                             count: None,
                         },
-                        texture3d(1, filterable),
-                        texture3d(2, true),
-                        texture2d(3),
-                        storage(4, false),
-                        storage(5, false),
-                        sampler(6, filterable),
-                        sampler(7, true),
-                        storage(8, false),
-                        storage(9, false),
+                        texture3d(bindings::VOLUME, filterable),
+                        texture3d(bindings::NORMALS, true),
+                        texture2d(bindings::LUT),
+                        storage(bindings::IMAGE, false),
+                        storage(bindings::STATS, false),
+                        sampler(bindings::VOLUME_SAMPLER, filterable),
+                        sampler(bindings::LINEAR_SAMPLER, true),
+                        storage(bindings::RAY_STATE, false),
+                        storage(bindings::RAY_DONE, false),
                         wgpu::BindGroupLayoutEntry {
-                            binding: 10,
+                            binding: bindings::OCCUPANCY,
                             visibility: wgpu::ShaderStages::COMPUTE,
                             ty: wgpu::BindingType::Texture {
                                 sample_type: wgpu::TextureSampleType::Uint,
@@ -199,7 +195,7 @@ impl Pipelines {
                             },
                             count: None,
                         },
-                        texture2d(11),
+                        texture2d(bindings::PREINT),
                     ],
                 });
                 let pipeline = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {

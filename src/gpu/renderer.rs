@@ -2,6 +2,7 @@
 //! renderer and are replaced only when their input changes: a camera, light
 //! or config change rewrites one 256-byte uniform block and nothing else.
 
+use super::bindings;
 use super::context::{GpuContext, GpuError};
 use super::half::{f16_to_f32, f32_to_f16};
 use super::pipeline::{Layout, Pipelines, Variant, WORKGROUP};
@@ -44,10 +45,16 @@ struct Params {
     last_pass: u32,
     occ_levels: u32,
     jitter_seed: u32,
-    /// (iso_value, anisotropy g, shadow step, pre-integration table side)
-    model_params: [f32; 4],
-    /// (scale, offset, -, -): sampled value -> transfer-function domain.
-    value_map: [f32; 4],
+    iso_value: f32,
+    /// Henyey–Greenstein g.
+    anisotropy: f32,
+    shadow_step: f32,
+    /// Side of the pre-integration table.
+    preint_side: f32,
+    /// Sampled value -> transfer-function domain: v * scale + offset.
+    value_scale: f32,
+    value_offset: f32,
+    value_pad: [f32; 2],
     /// The box rays march in, relative to the volume's min corner.
     clip_lo: [f32; 4],
     clip_hi: [f32; 4],
@@ -662,13 +669,13 @@ impl GpuRenderer {
             last_pass: 1,
             occ_levels: self.occ_levels,
             jitter_seed: cfg.jitter_seed,
-            model_params: [
-                cfg.iso_value as f32,
-                cfg.anisotropy as f32,
-                cfg.shadow_step() as f32,
-                preintegrate::table_side(self.lut_rows.len()) as f32,
-            ],
-            value_map: [self.value_map.scale as f32, self.value_map.offset as f32, 0.0, 0.0],
+            iso_value: cfg.iso_value as f32,
+            anisotropy: cfg.anisotropy as f32,
+            shadow_step: cfg.shadow_step() as f32,
+            preint_side: preintegrate::table_side(self.lut_rows.len()) as f32,
+            value_scale: self.value_map.scale as f32,
+            value_offset: self.value_map.offset as f32,
+            value_pad: [0.0; 2],
             clip_lo: v4(clip.min - vol.bounds.min),
             clip_hi: v4(clip.max - vol.bounds.min),
         })
@@ -776,24 +783,24 @@ impl GpuRenderer {
                     label: Some("raymarch"),
                     layout: &self.pipelines.layouts[hw_filter as usize].bind_group,
                     entries: &[
-                        wgpu::BindGroupEntry { binding: 0, resource: self.uniform.as_entire_binding() },
-                        wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&vol.view) },
-                        wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(normals) },
-                        wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(lut) },
-                        wgpu::BindGroupEntry { binding: 4, resource: output.storage.as_entire_binding() },
-                        wgpu::BindGroupEntry { binding: 5, resource: self.stats.as_entire_binding() },
+                        wgpu::BindGroupEntry { binding: bindings::PARAMS, resource: self.uniform.as_entire_binding() },
+                        wgpu::BindGroupEntry { binding: bindings::VOLUME, resource: wgpu::BindingResource::TextureView(&vol.view) },
+                        wgpu::BindGroupEntry { binding: bindings::NORMALS, resource: wgpu::BindingResource::TextureView(normals) },
+                        wgpu::BindGroupEntry { binding: bindings::LUT, resource: wgpu::BindingResource::TextureView(lut) },
+                        wgpu::BindGroupEntry { binding: bindings::IMAGE, resource: output.storage.as_entire_binding() },
+                        wgpu::BindGroupEntry { binding: bindings::STATS, resource: self.stats.as_entire_binding() },
                         wgpu::BindGroupEntry {
-                            binding: 6,
+                            binding: bindings::VOLUME_SAMPLER,
                             resource: wgpu::BindingResource::Sampler(&self.volume_samplers[hw_filter as usize]),
                         },
-                        wgpu::BindGroupEntry { binding: 7, resource: wgpu::BindingResource::Sampler(&self.linear_sampler) },
-                        wgpu::BindGroupEntry { binding: 8, resource: self.ray_state.state.as_entire_binding() },
-                        wgpu::BindGroupEntry { binding: 9, resource: self.ray_state.done.as_entire_binding() },
+                        wgpu::BindGroupEntry { binding: bindings::LINEAR_SAMPLER, resource: wgpu::BindingResource::Sampler(&self.linear_sampler) },
+                        wgpu::BindGroupEntry { binding: bindings::RAY_STATE, resource: self.ray_state.state.as_entire_binding() },
+                        wgpu::BindGroupEntry { binding: bindings::RAY_DONE, resource: self.ray_state.done.as_entire_binding() },
                         wgpu::BindGroupEntry {
-                            binding: 10,
+                            binding: bindings::OCCUPANCY,
                             resource: wgpu::BindingResource::TextureView(occupancy),
                         },
-                        wgpu::BindGroupEntry { binding: 11, resource: wgpu::BindingResource::TextureView(preint) },
+                        wgpu::BindGroupEntry { binding: bindings::PREINT, resource: wgpu::BindingResource::TextureView(preint) },
                     ],
                 })
             })?;

@@ -1,0 +1,74 @@
+// The uniform block (src/gpu/params.rs mirrors it field for field; a test
+// compares the two layouts) and the frame's resources, at the binding
+// indices the prelude takes from src/gpu/bindings.rs.
+
+struct Params {
+    // Positions are relative to the box's min corner: the box is [0, extent].
+    cam_pos: vec4<f32>,
+    cam_fwd: vec4<f32>,
+    cam_right: vec4<f32>,   // scaled by aspect * tan(fov / 2)
+    cam_up: vec4<f32>,      // scaled by tan(fov / 2)
+    extent: vec4<f32>,
+    inv_extent: vec4<f32>,
+    inv_two_spacing: vec4<f32>,  // 1 / (2 * voxel spacing), world axes
+    light_pos: vec4<f32>,
+    light_dir: vec4<f32>,   // directional: unit direction the light travels
+    step_size: f32,
+    inv_ref: f32,
+    ambient: f32,
+    diffuse: f32,
+    threshold: f32,
+    max_steps: u32,
+    width: u32,
+    height: u32,
+    lut_size: u32,
+    light_valid: u32,       // directional light with a defined direction
+    // Long rays are marched over several dispatches of at most pass_steps
+    // steps each (drivers cap loop trip counts and dispatch durations);
+    // between passes each ray's state waits in `ray_state`.
+    pass_start: u32,
+    pass_steps: u32,
+    first_pass: u32,
+    last_pass: u32,
+    // Mip levels of `occupancy` (passed in: textureNumLevels is not reliable
+    // on every driver).
+    occ_levels: u32,
+    jitter_seed: u32,
+    // The model's options: isosurface value, Henyey–Greenstein g, shadow
+    // step, and the side of the pre-integration table.
+    iso_value: f32,
+    anisotropy: f32,
+    shadow_step: f32,
+    preint_side: f32,
+    // Sampled value -> transfer-function domain, v * scale + offset (a value
+    // range in data units; identity by default).
+    value_scale: f32,
+    value_offset: f32,
+    value_pad: vec2<f32>,
+    // The box rays march in (a crop, or [0, extent]), same frame as positions.
+    clip_lo: vec4<f32>,
+    clip_hi: vec4<f32>,
+};
+
+@group(0) @binding(BINDING_PARAMS) var<uniform> P: Params;
+@group(0) @binding(BINDING_VOLUME) var volume: texture_3d<f32>;
+@group(0) @binding(BINDING_NORMALS) var normals: texture_3d<f32>;
+@group(0) @binding(BINDING_LUT) var lut: texture_2d<f32>;
+@group(0) @binding(BINDING_IMAGE) var<storage, read_write> out_rgba: array<vec4<f32>>;
+// [0]: largest step count a ray needed when max_steps cut it short;
+// [1], [2]: samples taken (low and high words).
+@group(0) @binding(BINDING_STATS) var<storage, read_write> stats: array<atomic<u32>, 3>;
+// Filtering when HW_FILTER, non-filtering otherwise (then never sampled).
+@group(0) @binding(BINDING_VOLUME_SAMPLER) var volume_sampler: sampler;
+// Always filtering: normals are stored as Rgba8Snorm.
+@group(0) @binding(BINDING_LINEAR_SAMPLER) var linear_sampler: sampler;
+// Per pixel, between passes: (colour, tau).
+@group(0) @binding(BINDING_RAY_STATE) var<storage, read_write> ray_state: array<vec4<f32>>;
+// Per pixel: 1 once the ray is finished (written by every ray in the first pass).
+@group(0) @binding(BINDING_RAY_DONE) var<storage, read_write> ray_done: array<u32>;
+// 1 where a cell of CELL^3 voxels may be visible under the current transfer
+// function; mip level l holds the same for cells of (CELL * 2^l)^3 voxels.
+@group(0) @binding(BINDING_OCCUPANCY) var occupancy: texture_3d<u32>;
+// Pre-integrated segments (src/preintegrate.rs): x = front value, y = back
+// value; rgb = premultiplied colour, a = optical depth of one full step.
+@group(0) @binding(BINDING_PREINT) var preint: texture_2d<f32>;

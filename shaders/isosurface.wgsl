@@ -1,0 +1,114 @@
+// The first crossing of the iso value, located by bisection and a secant step.
+
+fn below_iso(v: f32) -> bool {
+    // NaN counts as outside.
+    return !(v >= P.iso_value);
+}
+
+// First point where the value reaches iso_value: the entry, each segment's
+// midpoint and the exit are tested; the crossing is then bracketed by
+// bisection and placed by a secant step. The hit's ray parameter goes to
+// ray_state.x (infinity on a miss) for the depth image.
+fn march_iso(r: Ray) {
+    let iso = P.iso_value;
+    var prev = 0.0;
+    var prev_v = 0.0;
+    var prev_known = true;
+    var taken = 0u;
+    var found = false;
+    var hit = 0.0;
+    if (P.first_pass == 0u) {
+        let st = ray_state[r.idx];
+        prev = st.x;
+        prev_v = st.y;
+        prev_known = st.z != 0.0;
+    } else {
+        prev_v = value_at(tex_of(point_at(r, 0.0)));
+        taken += 1u;
+        if (!below_iso(prev_v)) {
+            found = true;
+        }
+    }
+    var i = r.begin;
+    loop {
+        if (found) {
+            break;
+        }
+        var at: f32;
+        if (i < r.end) {
+            let sp = span(r, i);
+            at = sp.x + 0.5 * sp.y;
+        } else if (i == r.n && r.n == r.needed) {
+            at = r.chord;
+        } else {
+            break;
+        }
+        i += 1u;
+        let v = value_at(tex_of(point_at(r, at)));
+        taken += 1u;
+        if (!below_iso(v)) {
+            if (!prev_known) {
+                prev_v = value_at(tex_of(point_at(r, prev)));
+                taken += 1u;
+            }
+            var lo = prev;
+            var hi = at;
+            var vlo = prev_v;
+            var vhi = v;
+            for (var k = 0u; k < ISO_BISECTIONS; k++) {
+                let m = 0.5 * (lo + hi);
+                let vm = value_at(tex_of(point_at(r, m)));
+                if (below_iso(vm)) {
+                    lo = m;
+                    vlo = vm;
+                } else {
+                    hi = m;
+                    vhi = vm;
+                }
+            }
+            taken += ISO_BISECTIONS;
+            hit = hi;
+            if (!is_nan(vlo) && vhi > vlo) {
+                hit = lo + (hi - lo) * clamp((iso - vlo) / (vhi - vlo), 0.0, 1.0);
+            }
+            found = true;
+            break;
+        }
+        if (SKIP_EMPTY && i <= r.end) {
+            // Below iso_value here; if no value in this cell reaches it,
+            // leap to the first midpoint past the cell, keeping as the
+            // bracket's lower end the last midpoint inside it.
+            let exit = empty_cell_exit(tex_of(point_at(r, at)), r.d);
+            if (exit >= 0.0) {
+                let k = ceil((at + exit) / P.step_size - 0.5 - r.shift - 1e-3);
+                let next = u32(clamp(k, f32(i), f32(r.end)));
+                if (next > i) {
+                    let sp = span(r, next - 1u);
+                    prev = sp.x + 0.5 * sp.y;
+                    // Sampled only if the next sample hits (below).
+                    prev_known = false;
+                    i = next;
+                    continue;
+                }
+            }
+        }
+        prev = at;
+        prev_v = v;
+        prev_known = true;
+    }
+    count_samples(taken);
+    if (!found && r.end < r.n) {
+        suspend(r, vec4<f32>(prev, prev_v, select(0.0, 1.0, prev_known), 0.0));
+        return;
+    }
+    if (!found) {
+        report_truncation(r);
+        ray_state[r.idx] = vec4<f32>(bitcast<f32>(0x7f800000u), 0.0, 0.0, 0.0);
+        finish(r, vec4<f32>(0.0));
+        return;
+    }
+    let p = point_at(r, hit);
+    let c = eval_lut(iso);
+    ray_state[r.idx] = vec4<f32>(r.t0 + hit, 0.0, 0.0, 0.0);
+    finish(r, vec4<f32>(c.rgb * surface_intensity(p), 1.0));
+}

@@ -1,0 +1,27 @@
+// Override constants: each scene feature that changes the inner loop is
+// fixed when a pipeline variant is built (src/gpu/pipeline.rs), so a frame
+// runs only the code its scene needs. MODEL takes a MODEL_* code and SHADING
+// a SHADING_* code from the generated prelude.
+
+override MODEL: u32 = 0u;
+override BACK_TO_FRONT: bool = false;
+override JITTER: bool = false;
+// Emission–absorption from the (front, back) table instead of the midpoint.
+override PRE_INTEGRATED: bool = false;
+
+// SHADING_AMBIENT_ONLY (no normals read), SHADING_NORMALS (supplied) or
+// SHADING_GRADIENT (on the fly). Single scattering reads no normals: there
+// SHADING_AMBIENT_ONLY means no diffuse term, anything else lit.
+override SHADING: u32 = 0u;
+override POINT_LIGHT: bool = false;
+override EARLY_TERMINATION: bool = true;
+override POWER_CORRECTION: bool = false;
+// true: the volume's format is filterable and the sampler interpolates;
+// false: trilinear by hand from textureLoad (R32Float without FLOAT32_FILTERABLE).
+override HW_FILTER: bool = true;
+// true: each volume texel is (value, normal x, y, z) (Rgba16Float), so a lit
+// sample fetches once; `normals` is then a placeholder.
+override NORMALS_IN_VOLUME: bool = false;
+
+// Skip cells of the occupancy grid that the transfer function leaves empty.
+override SKIP_EMPTY: bool = true;

@@ -1,0 +1,165 @@
+//! The uniform block every frame writes (the shader's `Params`, in
+//! shaders/bindings.wgsl) and how a frame's inputs fill it. Positions are
+//! relative to the volume's min corner, so the shader's box is [0, extent].
+
+use crate::config::RenderConfig;
+use crate::preintegrate;
+use crate::scene::{Bounds, RayBasis, Light, LightKind};
+use crate::transfer::ValueMap;
+use bytemuck::{Pod, Zeroable};
+use glam::DVec3;
+
+/// Declares the block and the list of its fields with their byte offsets,
+/// which a test compares with the WGSL struct's layout.
+macro_rules! uniform_block {
+    ($(#[$m:meta])* pub struct $name:ident { $($(#[$fm:meta])* pub $field:ident : $ty:ty,)* }) => {
+        $(#[$m])* pub struct $name { $($(#[$fm])* pub $field: $ty,)* }
+        impl $name {
+            /// (name, byte offset) of every field, in order.
+            pub const FIELDS: &'static [(&'static str, usize)] =
+                &[$((stringify!($field), std::mem::offset_of!($name, $field)),)*];
+        }
+    };
+}
+
+uniform_block! {
+    #[repr(C)]
+    #[derive(Clone, Copy, Pod, Zeroable, Debug, Default)]
+    pub struct Params {
+        pub cam_pos: [f32; 4],
+        pub cam_fwd: [f32; 4],
+        /// Scaled by aspect * tan(fov / 2).
+        pub cam_right: [f32; 4],
+        /// Scaled by tan(fov / 2).
+        pub cam_up: [f32; 4],
+        pub extent: [f32; 4],
+        pub inv_extent: [f32; 4],
+        /// 1 / (2 * voxel spacing) along the world axes.
+        pub inv_two_spacing: [f32; 4],
+        pub light_pos: [f32; 4],
+        /// A directional light's unit direction of travel.
+        pub light_dir: [f32; 4],
+        pub step_size: f32,
+        pub inv_ref: f32,
+        pub ambient: f32,
+        pub diffuse: f32,
+        pub threshold: f32,
+        pub max_steps: u32,
+        pub width: u32,
+        pub height: u32,
+        pub lut_size: u32,
+        /// A directional light with a defined direction.
+        pub light_valid: u32,
+        pub pass_start: u32,
+        pub pass_steps: u32,
+        pub first_pass: u32,
+        pub last_pass: u32,
+        pub occ_levels: u32,
+        pub jitter_seed: u32,
+        pub iso_value: f32,
+        /// Henyey–Greenstein g.
+        pub anisotropy: f32,
+        pub shadow_step: f32,
+        /// Side of the pre-integration table.
+        pub preint_side: f32,
+        /// Sampled value -> transfer-function domain: v * scale + offset.
+        pub value_scale: f32,
+        pub value_offset: f32,
+        pub value_pad: [f32; 2],
+        /// The box rays march in (a crop, or the whole volume).
+        pub clip_lo: [f32; 4],
+        pub clip_hi: [f32; 4],
+    }
+}
+
+fn v4(v: DVec3) -> [f32; 4] {
+    [v.x as f32, v.y as f32, v.z as f32, 0.0]
+}
+
+/// What a frame's block is made of besides the camera, light and config.
+pub struct FrameInputs {
+    pub bounds: Bounds,
+    pub dims: [usize; 3],
+    pub width: u32,
+    pub height: u32,
+    pub lut_size: u32,
+    pub occ_levels: u32,
+    pub value_map: ValueMap,
+    /// Crop box in world coordinates (None: the whole volume).
+    pub clip: Option<Bounds>,
+}
+
+impl Params {
+    /// The block of a single-pass frame (passes set `pass_*` themselves).
+    pub fn new(f: &FrameInputs, basis: &RayBasis, light: &Light, cfg: &RenderConfig) -> Params {
+        let b = f.bounds;
+        let ext = b.extent();
+        let spacing = ext / DVec3::new(f.dims[0] as f64, f.dims[1] as f64, f.dims[2] as f64);
+        let light_dir = (light.target - light.position).normalize_or_zero();
+        // A crop that misses the volume leaves an empty box: no ray enters it.
+        let clip = match f.clip {
+            Some(c) => b.intersection(&c).unwrap_or(Bounds { min: b.min, max: b.min }),
+            None => b,
+        };
+        Params {
+            cam_pos: v4(basis.origin - b.min),
+            cam_fwd: v4(basis.forward),
+            cam_right: v4(basis.right),
+            cam_up: v4(basis.up),
+            extent: v4(ext),
+            inv_extent: v4(1.0 / ext),
+            inv_two_spacing: v4(0.5 / spacing),
+            light_pos: v4(light.position - b.min),
+            light_dir: v4(light_dir),
+            step_size: cfg.step_size as f32,
+            inv_ref: (1.0 / cfg.reference_step_size) as f32,
+            ambient: light.ambient as f32,
+            diffuse: light.diffuse as f32,
+            threshold: cfg.opacity_threshold as f32,
+            max_steps: cfg.max_steps.clamp(0, u32::MAX as i64) as u32,
+            width: f.width,
+            height: f.height,
+            lut_size: f.lut_size,
+            light_valid: (light.kind == LightKind::Directional && light_dir != DVec3::ZERO) as u32,
+            pass_start: 0,
+            pass_steps: 0,
+            first_pass: 1,
+            last_pass: 1,
+            occ_levels: f.occ_levels,
+            jitter_seed: cfg.jitter_seed,
+            iso_value: cfg.iso_value as f32,
+            anisotropy: cfg.anisotropy as f32,
+            shadow_step: cfg.shadow_step() as f32,
+            preint_side: preintegrate::table_side(f.lut_size as usize) as f32,
+            value_scale: f.value_map.scale as f32,
+            value_offset: f.value_map.offset as f32,
+            value_pad: [0.0; 2],
+            clip_lo: v4(clip.min - b.min),
+            clip_hi: v4(clip.max - b.min),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gpu::shader;
+
+    #[test]
+    fn wgsl_block_has_the_rust_layout() {
+        let module = naga::front::wgsl::parse_str(&shader::source()).expect("the shader parses");
+        let ty = module
+            .types
+            .iter()
+            .find(|(_, t)| t.name.as_deref() == Some("Params"))
+            .map(|(_, t)| t)
+            .expect("the shader declares Params");
+        let naga::TypeInner::Struct { members, span } = &ty.inner else {
+            panic!("Params is not a struct");
+        };
+        let wgsl: Vec<(&str, usize)> =
+            members.iter().map(|m| (m.name.as_deref().unwrap_or(""), m.offset as usize)).collect();
+        assert_eq!(wgsl, Params::FIELDS.to_vec());
+        assert_eq!(*span as usize, std::mem::size_of::<Params>());
+    }
+}
