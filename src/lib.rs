@@ -10,6 +10,7 @@ pub mod integrate;
 pub mod model;
 pub mod occupancy;
 pub mod preintegrate;
+pub mod quantize;
 pub mod scene;
 pub mod transfer;
 pub mod volume;

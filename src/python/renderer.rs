@@ -4,7 +4,7 @@
 //! is checked again here: bad input is a ValueError/TypeError, never a panic.
 
 use super::config::PyRenderConfig;
-use crate::gpu::renderer::to_u8;
+use crate::quantize::to_u8;
 use crate::gpu::{GpuError, GpuRenderer};
 use crate::integrate::{self, Frame};
 use crate::scene::{Bounds, Camera, Light, LightKind};

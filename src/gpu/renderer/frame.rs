@@ -1,0 +1,243 @@
+//! A renderer's frame: check, plan, bind, dispatch, read back.
+
+use super::{FrameStats, GpuRenderer, SKIP_MIN_EMPTY, STATS_BYTES};
+use crate::config::RenderConfig;
+use crate::gpu::bindings;
+use crate::gpu::context::GpuError;
+use crate::gpu::params::{FrameInputs, Params};
+use crate::gpu::pipeline::{Layout, Variant, WORKGROUP};
+use crate::gpu::plan::{plan, PassPlan};
+use crate::gpu::readback::read_buffers;
+use crate::gpu::resources::{readback_buffer, OccSource, PreintKey, RayState};
+use crate::model::Model;
+use crate::scene::{Camera, Light, Shading};
+
+impl GpuRenderer {
+    /// Renders into `out` (width * height * 4 floats: premultiplied RGBA,
+    /// row 0 at the bottom).
+    pub fn render_into(
+        &mut self,
+        camera: &Camera,
+        light: &Light,
+        cfg: &RenderConfig,
+        out: &mut [f32],
+    ) -> Result<FrameStats, GpuError> {
+        let n = self.width as usize * self.height as usize * 4;
+        if out.len() != n {
+            return Err(GpuError(format!("output slice has {} floats, expected {n}", out.len())));
+        }
+        self.check_ready(cfg)?;
+        let source = match cfg.model {
+            Model::Isosurface => OccSource::Below(cfg.iso_value.to_bits()),
+            _ => OccSource::Lut(self.tables.version),
+        };
+        self.update_occupancy(source)?;
+        let params = self.params(camera, light, cfg)?;
+        self.depth_ready = false;
+        if self.skip_empty && self.occupancy.empty_fraction == 1.0 && cfg.model.skips_transparent() {
+            // Every sample of every ray would have opacity 0.
+            out.fill(0.0);
+            return Ok(self.finish_frame(FrameStats::default(), 0));
+        }
+        let (variant, passes) = self.prepare(camera, light, cfg)?;
+        self.bind(variant.layout.hw_filter)?;
+        self.dispatch(variant, params, passes)?;
+        let (truncated_needed, samples) = read_buffers(
+            &self.ctx,
+            &[&self.frame.output.readback, &self.frame.stats_readback],
+            "the image",
+            |data| {
+                out.copy_from_slice(bytemuck::cast_slice(data[0]));
+                let w: &[u32] = bytemuck::cast_slice(data[1]);
+                (w[0], w[1] as u64 | (w[2] as u64) << 32)
+            },
+        )?;
+        self.depth_ready = cfg.model == Model::Isosurface;
+        let uniforms = passes.passes as u64 * std::mem::size_of::<Params>() as u64 + STATS_BYTES;
+        let stats = FrameStats { truncated_needed, uploaded_bytes: 0, passes: passes.passes, samples };
+        Ok(self.finish_frame(stats, uniforms))
+    }
+
+    fn check_ready(&self, cfg: &RenderConfig) -> Result<(), GpuError> {
+        if self.volume.is_none() {
+            return Err(GpuError("no volume loaded: call load_volume() first".into()));
+        }
+        if self.tables.lut.is_none() {
+            return Err(GpuError("no transfer function set: call set_transfer_functions() first".into()));
+        }
+        cfg.validate().map_err(|e| GpuError(e.0))?;
+        Ok(())
+    }
+
+    /// Counts the frame and what it uploaded (pending resources plus `uniforms`).
+    fn finish_frame(&mut self, stats: FrameStats, uniforms: u64) -> FrameStats {
+        let uploaded = std::mem::take(&mut self.pending_upload) + uniforms;
+        self.counters.frames += 1;
+        self.counters.uploaded_bytes += uploaded;
+        FrameStats { uploaded_bytes: uploaded, ..stats }
+    }
+
+    fn params(&self, camera: &Camera, light: &Light, cfg: &RenderConfig) -> Result<Params, GpuError> {
+        let vol = self.volume.as_ref().expect("checked by check_ready");
+        let basis = camera.basis(self.width, self.height).map_err(|e| GpuError(e.0))?;
+        let inputs = FrameInputs {
+            bounds: vol.bounds,
+            dims: vol.dims,
+            width: self.width,
+            height: self.height,
+            lut_size: self.tables.lut.as_ref().map_or(1, |(_, n)| *n),
+            occ_levels: self.occupancy.levels,
+            value_map: self.value_map,
+            clip: self.clip,
+        };
+        Ok(Params::new(&inputs, &basis, light, cfg))
+    }
+
+    /// The shader variant and the passes this frame needs, with the ray
+    /// state and pre-integration table they use.
+    fn prepare(&mut self, camera: &Camera, light: &Light, cfg: &RenderConfig) -> Result<(Variant, PassPlan), GpuError> {
+        let vol = self.volume.as_ref().expect("checked by check_ready");
+        let shading = Shading::choose(light, vol.normals.is_some() || vol.normals_in_volume);
+        // Texels holding normals are only read through the sampler.
+        let hw_filter = vol.filterable && (!self.shader_filtering || vol.normals_in_volume);
+        let layout = Layout { hw_filter, normals_in_volume: vol.normals_in_volume };
+        let skip = self.skip_empty && self.occupancy.empty_fraction >= SKIP_MIN_EMPTY;
+        let variant = Variant::new(shading, light.kind, cfg, layout, skip);
+        let shadow_rays = cfg.model == Model::SingleScattering && variant.shading != Shading::AmbientOnly;
+        let passes = plan(cfg, &vol.bounds, camera.position, shadow_rays)?;
+        let pixels = self.width as u64 * self.height as u64;
+        if passes.per_pixel_state && self.frame.ray_state.pixels < pixels {
+            let limit = self.ctx.max_storage_bytes();
+            if pixels * 16 > limit {
+                return Err(GpuError(format!(
+                    "rays of up to {} steps are marched in passes, which need 16 bytes per pixel: \
+                     {}x{} is over this device's limit of {limit} bytes; use fewer pixels or fewer steps",
+                    passes.max_steps_needed, self.width, self.height
+                )));
+            }
+            self.frame.ray_state = RayState::new(&self.ctx, pixels)?;
+            self.bind_group = None;
+        }
+        if variant.pre_integrated {
+            let key = PreintKey {
+                lut_version: self.tables.version,
+                len_over_ref: cfg.step_size / cfg.reference_step_size,
+                form: cfg.opacity_correction,
+            };
+            let bytes = self.tables.ensure_preint(&self.ctx, key)?;
+            if bytes > 0 {
+                self.pending_upload += bytes;
+                self.bind_group = None;
+            }
+        }
+        Ok((variant, passes))
+    }
+
+    /// Makes the bind group unless the current one still holds every resource.
+    fn bind(&mut self, hw_filter: bool) -> Result<(), GpuError> {
+        if self.bind_group.as_ref().is_some_and(|(_, f)| *f == hw_filter) {
+            return Ok(());
+        }
+        let vol = self.volume.as_ref().expect("checked by check_ready");
+        let (lut, _) = self.tables.lut.as_ref().expect("checked by check_ready");
+        let normals = vol.normals.as_ref().unwrap_or(&self.fixed.no_normals);
+        let preint = self.tables.preint.as_ref().map_or(&self.fixed.no_preint, |(v, _)| v);
+        let occupancy = self
+            .occupancy
+            .view
+            .as_ref()
+            .ok_or_else(|| GpuError("the occupancy grid is missing: load the volume again".into()))?;
+        let view = wgpu::BindingResource::TextureView;
+        let sampler = wgpu::BindingResource::Sampler;
+        let f = &self.frame;
+        let entries = [
+            (bindings::PARAMS, f.uniform.as_entire_binding()),
+            (bindings::VOLUME, view(&vol.view)),
+            (bindings::NORMALS, view(normals)),
+            (bindings::LUT, view(lut)),
+            (bindings::IMAGE, f.output.storage.as_entire_binding()),
+            (bindings::STATS, f.stats.as_entire_binding()),
+            (bindings::VOLUME_SAMPLER, sampler(&self.fixed.volume_samplers[hw_filter as usize])),
+            (bindings::LINEAR_SAMPLER, sampler(&self.fixed.linear_sampler)),
+            (bindings::RAY_STATE, f.ray_state.state.as_entire_binding()),
+            (bindings::RAY_DONE, f.ray_state.done.as_entire_binding()),
+            (bindings::OCCUPANCY, view(occupancy)),
+            (bindings::PREINT, view(preint)),
+        ]
+        .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource });
+        let ctx = &self.ctx;
+        let group = ctx.scoped("binding frame resources", || {
+            ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("raymarch"),
+                layout: &self.pipelines.layouts[hw_filter as usize].bind_group,
+                entries: &entries,
+            })
+        })?;
+        self.bind_group = Some((group, hw_filter));
+        Ok(())
+    }
+
+    /// Submits the frame's passes; the last copies the image and statistics
+    /// to their readback buffers.
+    fn dispatch(&self, variant: Variant, params: Params, plan: PassPlan) -> Result<(), GpuError> {
+        let pipeline = self.pipelines.get(&self.ctx, variant)?;
+        let (bind_group, _) = self.bind_group.as_ref().expect("bound before dispatch");
+        let f = &self.frame;
+        let ctx = &self.ctx;
+        ctx.queue.write_buffer(&f.stats, 0, &[0u8; STATS_BYTES as usize]);
+        let image_bytes = self.width as u64 * self.height as u64 * 16;
+        for pass in 0..plan.passes {
+            let p = Params {
+                pass_start: pass * plan.pass_steps,
+                pass_steps: plan.pass_steps,
+                first_pass: (pass == 0) as u32,
+                last_pass: (pass + 1 == plan.passes) as u32,
+                ..params
+            };
+            // Writes before a submit are ordered with it: each pass sees its own.
+            ctx.queue.write_buffer(&f.uniform, 0, bytemuck::bytes_of(&p));
+            ctx.scoped("rendering", || {
+                let mut enc = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
+                {
+                    let mut cpass =
+                        enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("raymarch"), timestamp_writes: None });
+                    cpass.set_pipeline(&pipeline);
+                    cpass.set_bind_group(0, bind_group, &[]);
+                    cpass.dispatch_workgroups(self.width.div_ceil(WORKGROUP), self.height.div_ceil(WORKGROUP), 1);
+                }
+                if p.last_pass == 1 {
+                    enc.copy_buffer_to_buffer(&f.output.storage, 0, &f.output.readback, 0, image_bytes);
+                    enc.copy_buffer_to_buffer(&f.stats, 0, &f.stats_readback, 0, STATS_BYTES);
+                }
+                ctx.queue.submit([enc.finish()]);
+            })?;
+        }
+        Ok(())
+    }
+
+    /// Ray parameter (distance from the camera along each unit-length ray)
+    /// of the last frame's isosurface hits, row 0 at the bottom; infinity
+    /// where a ray found no surface. `None` unless the last frame was an
+    /// isosurface.
+    pub fn depth(&mut self) -> Result<Option<Vec<f32>>, GpuError> {
+        if !self.depth_ready {
+            return Ok(None);
+        }
+        let bytes = self.width as u64 * self.height as u64 * 16;
+        let ctx = &self.ctx;
+        let staging = ctx.scoped("reading the depth image", || readback_buffer(&ctx.device, "depth readback", bytes))?;
+        let mut enc = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("depth") });
+        enc.copy_buffer_to_buffer(&self.frame.ray_state.state, 0, &staging, 0, bytes);
+        ctx.queue.submit([enc.finish()]);
+        read_buffers(ctx, &[&staging], "the depth", |data| {
+            let v: &[[f32; 4]] = bytemuck::cast_slice(data[0]);
+            Some(v.iter().map(|s| s[0]).collect())
+        })
+    }
+
+    pub fn render(&mut self, camera: &Camera, light: &Light, cfg: &RenderConfig) -> Result<(Vec<f32>, FrameStats), GpuError> {
+        let mut out = vec![0.0f32; self.width as usize * self.height as usize * 4];
+        let stats = self.render_into(camera, light, cfg, &mut out)?;
+        Ok((out, stats))
+    }
+}

@@ -1,0 +1,398 @@
+//! A renderer's GPU resources and their uploads: the volume (and normals),
+//! the transfer-function table, the occupancy grid, the pre-integration
+//! table, and the buffers a frame writes. Each is rebuilt only when its
+//! input changes.
+
+use super::context::{GpuContext, GpuError};
+use super::half::{f16_to_f32, f32_to_f16};
+use crate::config::OpacityCorrection;
+use crate::occupancy::{pyramid, MinMaxGrid};
+use crate::preintegrate;
+use crate::scene::Bounds;
+use crate::volume::{sanitize, unit_direction, Precision, VolumeView, Voxels};
+
+const D2: wgpu::TextureDimension = wgpu::TextureDimension::D2;
+const D3: wgpu::TextureDimension = wgpu::TextureDimension::D3;
+
+/// The volume as stored on the device.
+pub struct VolumeGpu {
+    /// The stored format can be filtered by the sampler.
+    pub filterable: bool,
+    pub view: wgpu::TextureView,
+    /// Normals in their own texture.
+    pub normals: Option<wgpu::TextureView>,
+    /// Normals in the volume's texels: (value, nx, ny, nz), Rgba16Float.
+    pub normals_in_volume: bool,
+    /// The device's texel format for the values, for reports.
+    pub format: wgpu::TextureFormat,
+    pub dims: [usize; 3],
+    pub bounds: Bounds,
+    pub bytes: u64,
+    pub grid: MinMaxGrid,
+}
+
+impl VolumeGpu {
+    /// Uploads `vol`, storing float data at `precision`.
+    pub fn upload(ctx: &GpuContext, vol: &VolumeView, precision: Precision) -> Result<VolumeGpu, GpuError> {
+        let max3d = ctx.limits.max_texture_dimension_3d as usize;
+        if let Some(&big) = vol.dims.iter().find(|&&d| d > max3d) {
+            return Err(GpuError(format!(
+                "volume shape {:?} has an axis of {big} voxels, over this device's 3-D texture limit \
+                 of {max3d}",
+                vol.dims
+            )));
+        }
+        if let (Voxels::F32(v), Precision::Float16) = (vol.voxels, precision) {
+            precision.check(v).map_err(|e| GpuError(e.0))?;
+            return Self::upload_f16(ctx, vol, v);
+        }
+        let unorm16 = ctx.features.contains(wgpu::Features::TEXTURE_FORMAT_16BIT_NORM);
+        let converted: Vec<u8>;
+        let (format, bytes): (wgpu::TextureFormat, &[u8]) = match vol.voxels {
+            Voxels::U8(v) => (wgpu::TextureFormat::R8Unorm, v),
+            Voxels::U16(v) if unorm16 => (wgpu::TextureFormat::R16Unorm, bytemuck::cast_slice(v)),
+            Voxels::U16(v) => {
+                let f: Vec<f32> = v.iter().map(|&x| x as f32 / 65535.0).collect();
+                converted = bytemuck::cast_slice(&f).to_vec();
+                (wgpu::TextureFormat::R32Float, &converted)
+            }
+            Voxels::F32(v) => {
+                if v.iter().any(|x| x.is_infinite()) {
+                    let f: Vec<f32> = v.iter().map(|&x| sanitize(x)).collect();
+                    converted = bytemuck::cast_slice(&f).to_vec();
+                    (wgpu::TextureFormat::R32Float, &converted)
+                } else {
+                    (wgpu::TextureFormat::R32Float, bytemuck::cast_slice(v))
+                }
+            }
+        };
+        let size = extent_of(vol.dims);
+        let view = ctx.texture_with_data("uploading the volume", "volume", size, D3, format, 1, bytes)?;
+        // R8Unorm is filtered in the shader: lavapipe's 8-bit filtering path
+        // returns results quantised to 1/255, which loses faint structure
+        // (measured: alpha 0.006 instead of 0.029 at a sphere's rim).
+        let filterable = match format {
+            wgpu::TextureFormat::R8Unorm => false,
+            wgpu::TextureFormat::R32Float => ctx.features.contains(wgpu::Features::FLOAT32_FILTERABLE),
+            _ => true,
+        };
+        let normals = match vol.normals {
+            None => None,
+            Some(n) => Some(upload_normals(ctx, size, n)?),
+        };
+        let normal_bytes = normals.as_ref().map_or(0, |(_, b)| *b);
+        Ok(VolumeGpu {
+            filterable,
+            view,
+            normals: normals.map(|(v, _)| v),
+            normals_in_volume: false,
+            format,
+            dims: vol.dims,
+            bounds: vol.bounds,
+            bytes: bytes.len() as u64 + normal_bytes,
+            grid: MinMaxGrid::build(vol),
+        })
+    }
+
+    /// Float data as float16: R16Float, or with normals one Rgba16Float texel
+    /// (value, normal) per voxel, so that a lit sample fetches once. The
+    /// occupancy grid is built from the rounded values the device reads.
+    fn upload_f16(ctx: &GpuContext, vol: &VolumeView, values: &[f32]) -> Result<VolumeGpu, GpuError> {
+        let halves: Vec<u16> = values.iter().map(|&v| f32_to_f16(v)).collect();
+        // Built before the texels so that the rounded copy is freed first
+        // (a 512^3 volume's texels alone take 1 GB).
+        let grid = {
+            let rounded: Vec<f32> = halves.iter().map(|&h| f16_to_f32(h)).collect();
+            MinMaxGrid::build(&VolumeView { voxels: Voxels::F32(&rounded), ..*vol })
+        };
+        let (format, data) = match vol.normals {
+            None => (wgpu::TextureFormat::R16Float, halves),
+            Some(n) => {
+                let mut texels = Vec::with_capacity(halves.len() * 4);
+                for (&h, c) in halves.iter().zip(n.chunks_exact(3)) {
+                    let u = unit_direction([c[0], c[1], c[2]]);
+                    texels.extend_from_slice(&[h, f32_to_f16(u[0]), f32_to_f16(u[1]), f32_to_f16(u[2])]);
+                }
+                (wgpu::TextureFormat::Rgba16Float, texels)
+            }
+        };
+        let bytes: &[u8] = bytemuck::cast_slice(&data);
+        let view = ctx.texture_with_data("uploading the volume", "volume", extent_of(vol.dims), D3, format, 1, bytes)?;
+        Ok(VolumeGpu {
+            filterable: true,
+            view,
+            normals: None,
+            normals_in_volume: vol.normals.is_some(),
+            format,
+            dims: vol.dims,
+            bounds: vol.bounds,
+            bytes: bytes.len() as u64,
+            grid,
+        })
+    }
+
+    /// The stored format and where the normals are, for reports.
+    pub fn storage(&self) -> String {
+        let texel = format!("{:?}", self.format).to_lowercase();
+        match (self.normals.is_some(), self.normals_in_volume) {
+            (true, _) => format!("{texel} + rgba8snorm normals"),
+            (false, true) => format!("{texel} (value, normal)"),
+            (false, false) => texel,
+        }
+    }
+}
+
+/// numpy's last axis is the fastest: it becomes the texture's x.
+fn extent_of([s0, s1, s2]: [usize; 3]) -> wgpu::Extent3d {
+    wgpu::Extent3d { width: s2 as u32, height: s1 as u32, depth_or_array_layers: s0 as u32 }
+}
+
+/// 4 bytes per voxel: each normal's direction (normals are directions;
+/// VolumeView::normal reads them so too), its components to 1/127. The
+/// lighting error this allows is under 0.4% (against f32 normals: at most 1
+/// level, mean 0.004), and on lavapipe the lit frame is 18% faster than with
+/// Rgba16Float.
+fn upload_normals(ctx: &GpuContext, size: wgpu::Extent3d, n: &[f32]) -> Result<(wgpu::TextureView, u64), GpuError> {
+    let mut packed: Vec<i8> = Vec::with_capacity(n.len() / 3 * 4);
+    for c in n.chunks_exact(3) {
+        let u = unit_direction([c[0], c[1], c[2]]);
+        let q = |v: f32| (v * 127.0).round() as i8;
+        packed.extend_from_slice(&[q(u[0]), q(u[1]), q(u[2]), 0]);
+    }
+    let data: &[u8] = bytemuck::cast_slice(&packed);
+    let snorm8 = wgpu::TextureFormat::Rgba8Snorm;
+    let view = ctx.texture_with_data("uploading the normals", "normals", size, D3, snorm8, 1, data)?;
+    Ok((view, data.len() as u64))
+}
+
+/// RGBA rows as a filterable texture: f32 when the device can filter it,
+/// else f16 (`cap` caps values f16 cannot hold).
+fn float_table(ctx: &GpuContext, rows: &[[f32; 4]], cap: Option<f32>) -> (wgpu::TextureFormat, Vec<u8>) {
+    if ctx.features.contains(wgpu::Features::FLOAT32_FILTERABLE) {
+        (wgpu::TextureFormat::Rgba32Float, bytemuck::cast_slice(rows).to_vec())
+    } else {
+        let h: Vec<u16> = rows.iter().flatten().map(|&v| f32_to_f16(cap.map_or(v, |c| v.min(c)))).collect();
+        (wgpu::TextureFormat::Rgba16Float, bytemuck::cast_slice(&h).to_vec())
+    }
+}
+
+/// The transfer-function table and what is derived from it.
+pub struct Tables {
+    /// The table (entries at scalars m / (M - 1)) as an M x 1 texture the
+    /// sampler interpolates, and M.
+    pub lut: Option<(wgpu::TextureView, u32)>,
+    /// The rows last uploaded, kept to recompute occupancy and pre-integration.
+    pub rows: Vec<[f32; 4]>,
+    /// Bumped by every upload, so derived tables know when to rebuild.
+    pub version: u64,
+    /// The pre-integration table and what it was built for.
+    pub preint: Option<(wgpu::TextureView, PreintKey)>,
+}
+
+/// What a pre-integration table depends on.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PreintKey {
+    pub lut_version: u64,
+    pub len_over_ref: f64,
+    pub form: OpacityCorrection,
+}
+
+impl Tables {
+    pub fn new() -> Tables {
+        Tables { lut: None, rows: Vec::new(), version: 0, preint: None }
+    }
+
+    /// Uploads the table: a texture fetch is far cheaper than an indexed
+    /// storage-buffer read on CPU drivers; f16 (where f32 cannot be filtered)
+    /// is within 0.13 of an 8-bit level. Returns the bytes written.
+    pub fn upload_lut(&mut self, ctx: &GpuContext, lut: &[[f32; 4]]) -> Result<u64, GpuError> {
+        if lut.is_empty() {
+            return Err(GpuError("the transfer-function table must have at least one entry".into()));
+        }
+        let max = ctx.limits.max_texture_dimension_2d as usize;
+        if lut.len() > max {
+            return Err(GpuError(format!(
+                "transfer-function table of {} entries exceeds this device's limit of {max} entries",
+                lut.len()
+            )));
+        }
+        let (format, bytes) = float_table(ctx, lut, None);
+        let size = wgpu::Extent3d { width: lut.len() as u32, height: 1, depth_or_array_layers: 1 };
+        let view = ctx.texture_with_data("uploading the transfer function", "lut", size, D2, format, 1, &bytes)?;
+        self.lut = Some((view, lut.len() as u32));
+        self.rows = lut.to_vec();
+        self.version += 1;
+        Ok(bytes.len() as u64)
+    }
+
+    /// Builds the pre-integration table for `key` unless the current one was
+    /// built for it. Returns the bytes written (0 when kept).
+    pub fn ensure_preint(&mut self, ctx: &GpuContext, key: PreintKey) -> Result<u64, GpuError> {
+        if self.preint.as_ref().is_some_and(|(_, k)| *k == key) {
+            return Ok(0);
+        }
+        let table = preintegrate::table(&self.rows, key.len_over_ref, key.form);
+        let side = preintegrate::table_side(self.rows.len()) as u32;
+        // f16 tops out at 65504: deeper segments are opaque anyway.
+        let (format, bytes) = float_table(ctx, &table, Some(6.0e4));
+        let size = wgpu::Extent3d { width: side, height: side, depth_or_array_layers: 1 };
+        let view = ctx.texture_with_data("uploading the pre-integration table", "preint", size, D2, format, 1, &bytes)?;
+        self.preint = Some((view, key));
+        Ok(bytes.len() as u64)
+    }
+}
+
+/// What decides which occupancy cells are empty.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum OccSource {
+    /// Zero opacity under this version of the transfer function.
+    Lut(u64),
+    /// Values below this iso value (bits of the f64).
+    Below(u64),
+}
+
+/// Which cells of the volume can show anything, as an R8Uint 3-D texture
+/// (one byte per 8^3 voxels) with up to 4 mip levels (cells of 8, 16, 32,
+/// 64 voxels).
+pub struct Occupancy {
+    pub view: Option<wgpu::TextureView>,
+    /// What the grid was built from.
+    pub source: Option<OccSource>,
+    /// Fraction of level-0 cells left empty. Above 0 the skipping variant is
+    /// worth its cost (its branch slows dense scenes by ~20% on lavapipe);
+    /// at 1 no ray needs marching.
+    pub empty_fraction: f64,
+    pub levels: u32,
+}
+
+impl Occupancy {
+    pub fn new() -> Occupancy {
+        Occupancy { view: None, source: None, empty_fraction: 0.0, levels: 1 }
+    }
+
+    /// Uploads the grid `occ` (1 = may show) of `grid`'s cells, built from
+    /// `source`. Returns the bytes written.
+    pub fn upload(&mut self, ctx: &GpuContext, grid: &MinMaxGrid, occ: &[u8], source: OccSource) -> Result<u64, GpuError> {
+        let [g0, g1, g2] = grid.dims;
+        let largest = g0.max(g1).max(g2) as u32;
+        let levels = (32 - largest.leading_zeros()).clamp(1, 4) as usize;
+        let data: Vec<u8> = pyramid(occ, grid.dims, levels).into_iter().flat_map(|(l, _)| l).collect();
+        let size = wgpu::Extent3d { width: g2 as u32, height: g1 as u32, depth_or_array_layers: g0 as u32 };
+        let r8 = wgpu::TextureFormat::R8Uint;
+        let view = ctx.texture_with_data("uploading the occupancy grid", "occupancy", size, D3, r8, levels as u32, &data)?;
+        self.empty_fraction = occ.iter().filter(|&&o| o == 0).count() as f64 / occ.len() as f64;
+        self.levels = levels as u32;
+        self.view = Some(view);
+        self.source = Some(source);
+        Ok(data.len() as u64)
+    }
+}
+
+/// The image a frame writes and its readback copy (16 bytes per pixel).
+pub struct Output {
+    pub storage: wgpu::Buffer,
+    pub readback: wgpu::Buffer,
+}
+
+impl Output {
+    pub fn new(ctx: &GpuContext, width: u32, height: u32) -> Result<Output, GpuError> {
+        let size = width as u64 * height as u64 * 16;
+        let device = &ctx.device;
+        ctx.scoped("allocating the output image", || Output {
+            storage: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("image"),
+                size,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            }),
+            readback: readback_buffer(device, "image readback", size),
+        })
+    }
+}
+
+pub fn readback_buffer(device: &wgpu::Device, label: &str, size: u64) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
+/// Where rays wait between passes: 16 bytes of state and a done flag per
+/// pixel. A one-pixel placeholder pair is bound while every frame fits one pass.
+pub struct RayState {
+    pub state: wgpu::Buffer,
+    pub done: wgpu::Buffer,
+    pub pixels: u64,
+}
+
+impl RayState {
+    pub fn new(ctx: &GpuContext, pixels: u64) -> Result<RayState, GpuError> {
+        let device = &ctx.device;
+        ctx.scoped("allocating ray state", || RayState {
+            state: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("ray state"),
+                size: pixels * 16,
+                // Copied out for the isosurface model's depth image.
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            }),
+            done: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("ray done"),
+                size: pixels * 4,
+                usage: wgpu::BufferUsages::STORAGE,
+                mapped_at_creation: false,
+            }),
+            pixels,
+        })
+    }
+}
+
+/// Samplers and the placeholders bound where a frame needs no normals or
+/// pre-integration table.
+pub struct Fixed {
+    pub no_normals: wgpu::TextureView,
+    pub no_preint: wgpu::TextureView,
+    /// [non-filtering, filtering]: the volume's sampler by filterability.
+    pub volume_samplers: [wgpu::Sampler; 2],
+    pub linear_sampler: wgpu::Sampler,
+}
+
+impl Fixed {
+    pub fn new(ctx: &GpuContext) -> Result<Fixed, GpuError> {
+        let device = &ctx.device;
+        let no_normals = ctx.scoped("allocating renderer buffers", || {
+            device
+                .create_texture(&wgpu::TextureDescriptor {
+                    label: Some("no normals"),
+                    size: wgpu::Extent3d { width: 1, height: 1, depth_or_array_layers: 1 },
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: D3,
+                    format: wgpu::TextureFormat::Rgba16Float,
+                    usage: wgpu::TextureUsages::TEXTURE_BINDING,
+                    view_formats: &[],
+                })
+                .create_view(&Default::default())
+        })?;
+        let sampler = |filter: wgpu::FilterMode| {
+            device.create_sampler(&wgpu::SamplerDescriptor {
+                label: Some("volume"),
+                address_mode_u: wgpu::AddressMode::ClampToEdge,
+                address_mode_v: wgpu::AddressMode::ClampToEdge,
+                address_mode_w: wgpu::AddressMode::ClampToEdge,
+                mag_filter: filter,
+                min_filter: filter,
+                mipmap_filter: wgpu::MipmapFilterMode::Nearest,
+                ..Default::default()
+            })
+        };
+        let volume_samplers = [sampler(wgpu::FilterMode::Nearest), sampler(wgpu::FilterMode::Linear)];
+        let linear_sampler = sampler(wgpu::FilterMode::Linear);
+        let one = wgpu::Extent3d { width: 1, height: 1, depth_or_array_layers: 1 };
+        let no_preint =
+            ctx.texture_with_data("allocating renderer buffers", "no table", one, D2, wgpu::TextureFormat::Rgba16Float, 1, &[0u8; 8])?;
+        Ok(Fixed { no_normals, no_preint, volume_samplers, linear_sampler })
+    }
+}
