@@ -31,175 +31,204 @@ fn preint_lookup(vf: f32, vb: f32) -> vec4<f32> {
     return textureSampleLevel(preint, linear_sampler, uv, 0.0);
 }
 
-// Emission–absorption, absorption, emission and single scattering: the
-// optical depth is summed along the ray (tau), transmittance is exp(-tau).
-fn march_integrate(r: Ray) {
-    // Transmittance is exp(-tau) of the optical depth summed so far, not a
-    // running product of (1 - alpha): a product loses every segment whose
-    // alpha is below f32's half-ulp of 1 (6e-8), which tiny steps produce.
-    // Sums are blocked: 2^BLOCK_SHIFT samples add into a small partial sum that is
-    // folded into the total, so a million tiny terms keep their precision
-    // (compensated sums would be undone by compilers that reassociate).
-    var color = vec3<f32>(0.0);
-    var tau = 0.0;
-    if (P.first_pass == 0u) {
-        let st = ray_state[r.idx];
-        color = st.xyz;
-        tau = st.w;
-    }
-    var color_b = vec3<f32>(0.0);
-    var tau_b = 0.0;
-    var trans = exp(-tau);
-    var stopped = false;
-    var taken = 0u;
-    var blocks = 0u;
+// What a Beer–Lambert march carries from segment to segment.
+// Transmittance is exp(-tau) of the optical depth summed so far, not a
+// running product of (1 - alpha): a product loses every segment whose alpha
+// is below f32's half-ulp of 1 (6e-8), which tiny steps produce. Sums are
+// blocked: 2^BLOCK_SHIFT samples add into a small partial sum (color_b,
+// tau_b) that is folded into the total, so a million tiny terms keep their
+// precision (compensated sums would be undone by compilers that reassociate).
+struct Integration {
+    color: vec3<f32>,
+    tau: f32,
+    color_b: vec3<f32>,
+    tau_b: f32,
+    trans: f32,
+    // Partial sums folded so far (samples taken >> BLOCK_SHIFT).
+    blocks: u32,
     // The value at segment boundary `carry_at` (pre-integration shares each
     // boundary between two segments).
-    var carry_at = 0xffffffffu;
-    var carry_v = 0.0;
+    carry_at: u32,
+    carry_v: f32,
+};
+
+// One segment before lighting: its optical depth x, the colour it emits,
+// and the volume's texel at its midpoint when that was fetched.
+struct Segment {
+    x: f32,
+    add: vec3<f32>,
+    texel: vec4<f32>,
+    have_texel: bool,
+};
+
+fn start_integration(r: Ray) -> Integration {
+    var s: Integration;
+    s.color = vec3<f32>(0.0);
+    s.tau = 0.0;
+    if (P.first_pass == 0u) {
+        let st = ray_state[r.idx];
+        s.color = st.xyz;
+        s.tau = st.w;
+    }
+    s.color_b = vec3<f32>(0.0);
+    s.tau_b = 0.0;
+    s.trans = exp(-s.tau);
+    s.blocks = 0u;
+    s.carry_at = 0xffffffffu;
+    s.carry_v = 0.0;
+    return s;
+}
+
+// A full-length segment from the pre-integration table of its end values.
+fn preintegrated_segment(r: Ray, si: u32, lo: f32, s: ptr<function, Integration>) -> Segment {
     let h = P.step_size;
-    for (var i = r.begin; i < r.end; i++) {
-        var si = i;
-        if (BACK_TO_FRONT) {
-            si = r.n - 1u - i;
-        }
-        let sp = span(r, si);
-        let lo = sp.x;
-        let seg = sp.y;
-        let mid = lo + 0.5 * seg;
-        let p = point_at(r, mid);
-        let tc = tex_of(p);
-        var x = 0.0;
-        var add = vec3<f32>(0.0);
-        // The volume's texel at p, when this segment fetched it.
-        var texel = vec4<f32>(0.0);
-        var have_texel = false;
-        if (PRE_INTEGRATED && seg == h) {
-            var vf: f32;
-            var vb: f32;
-            // Branches, not select(): select evaluates (samples) both sides.
-            if (BACK_TO_FRONT) {
-                if (carry_at == si + 1u) {
-                    vb = carry_v;
-                } else {
-                    vb = value_at(tex_of(point_at(r, lo + h)));
-                }
-                vf = value_at(tex_of(point_at(r, lo)));
-                carry_at = si;
-                carry_v = vf;
-            } else {
-                if (carry_at == si) {
-                    vf = carry_v;
-                } else {
-                    vf = value_at(tex_of(point_at(r, lo)));
-                }
-                vb = value_at(tex_of(point_at(r, lo + h)));
-                carry_at = si + 1u;
-                carry_v = vb;
-            }
-            taken += 1u;
-            if (!is_nan(vf) && !is_nan(vb)) {
-                let e = preint_lookup(vf, vb);
-                x = e.a;
-                add = e.rgb;
-            }
+    var vf: f32;
+    var vb: f32;
+    // Branches, not select(): select evaluates (samples) both sides.
+    if (BACK_TO_FRONT) {
+        if ((*s).carry_at == si + 1u) {
+            vb = (*s).carry_v;
         } else {
-            texel = volume_texel(tc);
-            have_texel = true;
-            let v = tf_value(texel.r);
-            let valid = !is_nan(v);
-            let rgba = eval_lut(select(0.0, v, valid));
-            let sigma = extinction(select(0.0, rgba.a, valid));
-            x = select(0.0, min(sigma * (seg * P.inv_ref), 1.0e30), sigma > 0.0 && seg > 0.0);
-            if (SKIP_EMPTY && !(x > 0.0)) {
-                // This sample is empty; if its whole cell is, jump to the first
-                // sample past the cell (a thousandth of a step early, so that
-                // rounding can never skip a sample of the next cell).
-                var dir = r.d;
-                if (BACK_TO_FRONT) {
-                    dir = -r.d;
-                }
-                let exit = empty_cell_exit(tc, dir);
-                if (exit >= 0.0) {
-                    taken += 1u;
-                    var next: u32;
-                    if (BACK_TO_FRONT) {
-                        // Highest segment whose midpoint lies before the cell's near side.
-                        let k = ceil((mid - exit) / h - 0.5 - r.shift + 1e-3) - 1.0;
-                        let ki = i32(clamp(k, -1.0, f32(si) - 1.0));
-                        next = u32(clamp(i32(r.n) - 1 - ki, i32(i) + 1, i32(r.end)));
-                    } else {
-                        let k = ceil((mid + exit) / h - 0.5 - r.shift - 1e-3);
-                        next = u32(clamp(k, f32(i + 1u), f32(r.end)));
-                    }
-                    i = next - 1u;
-                    continue;
-                }
-            }
-            taken += 1u;
-            if (MODEL == MODEL_EMISSION) {
-                add = x * rgba.rgb;
-            } else if (MODEL != MODEL_ABSORPTION) {
-                add = one_minus_exp_neg(x) * rgba.rgb;
-            }
+            vb = value_at(tex_of(point_at(r, lo + h)));
         }
-        if (MODEL != MODEL_ABSORPTION && x > 0.0) {
-            if (MODEL == MODEL_SINGLE_SCATTERING) {
-                add *= scatter_intensity(p, r.d, &taken);
-            } else if (SHADING != SHADING_AMBIENT_ONLY && have_texel) {
-                add *= surface_intensity_with(p, texel);
-            } else if (SHADING != SHADING_AMBIENT_ONLY) {
-                add *= surface_intensity(p);
-            } else {
-                add *= P.ambient;
-            }
-        }
-        if (BACK_TO_FRONT) {
-            // From the far end: C = c_i + exp(-x_i) C. No early stop.
-            if (MODEL == MODEL_EMISSION) {
-                color += add;
-            } else {
-                color = add + exp(-x) * color;
-            }
+        vf = value_at(tex_of(point_at(r, lo)));
+        (*s).carry_at = si;
+        (*s).carry_v = vf;
+    } else {
+        if ((*s).carry_at == si) {
+            vf = (*s).carry_v;
         } else {
-            color_b += trans * add;
+            vf = value_at(tex_of(point_at(r, lo)));
         }
+        vb = value_at(tex_of(point_at(r, lo + h)));
+        (*s).carry_at = si + 1u;
+        (*s).carry_v = vb;
+    }
+    var g: Segment;
+    g.x = 0.0;
+    g.add = vec3<f32>(0.0);
+    g.have_texel = false;
+    if (!is_nan(vf) && !is_nan(vb)) {
+        let e = preint_lookup(vf, vb);
+        g.x = e.a;
+        g.add = e.rgb;
+    }
+    return g;
+}
+
+// A segment from its midpoint texel.
+fn midpoint_segment(texel: vec4<f32>, seg: f32) -> Segment {
+    let v = tf_value(texel.r);
+    let valid = !is_nan(v);
+    let rgba = eval_lut(select(0.0, v, valid));
+    let sigma = extinction(select(0.0, rgba.a, valid));
+    var g: Segment;
+    g.x = select(0.0, min(sigma * (seg * P.inv_ref), 1.0e30), sigma > 0.0 && seg > 0.0);
+    g.add = emitted_colour(g.x, rgba.rgb);
+    g.texel = texel;
+    g.have_texel = true;
+    return g;
+}
+
+// Colour emitted over a segment of optical depth x with table colour c.
+fn emitted_colour(x: f32, c: vec3<f32>) -> vec3<f32> {
+    if (MODEL == MODEL_EMISSION) {
+        return x * c;
+    } else if (MODEL != MODEL_ABSORPTION) {
+        return one_minus_exp_neg(x) * c;
+    }
+    return vec3<f32>(0.0);
+}
+
+// The index of the first segment past the empty cell holding midpoint `mid`
+// (a thousandth of a step early, so that rounding can never skip a sample of
+// the next cell), or 0xffffffff when its cell is not empty.
+fn leap_past_empty(r: Ray, i: u32, si: u32, mid: f32, tc: vec3<f32>) -> u32 {
+    var dir = r.d;
+    if (BACK_TO_FRONT) {
+        dir = -r.d;
+    }
+    let exit = empty_cell_exit(tc, dir);
+    if (exit < 0.0) {
+        return 0xffffffffu;
+    }
+    let h = P.step_size;
+    if (BACK_TO_FRONT) {
+        // Highest segment whose midpoint lies before the cell's near side.
+        let k = ceil((mid - exit) / h - 0.5 - r.shift + 1e-3) - 1.0;
+        let ki = i32(clamp(k, -1.0, f32(si) - 1.0));
+        return u32(clamp(i32(r.n) - 1 - ki, i32(i) + 1, i32(r.end)));
+    }
+    let k = ceil((mid + exit) / h - 0.5 - r.shift - 1e-3);
+    return u32(clamp(k, f32(i + 1u), f32(r.end)));
+}
+
+// The emitted colour scaled by the light reaching the segment's midpoint p.
+fn lit(g: Segment, p: vec3<f32>, d: vec3<f32>, taken: ptr<function, u32>) -> vec3<f32> {
+    if (MODEL == MODEL_ABSORPTION || !(g.x > 0.0)) {
+        return g.add;
+    }
+    if (MODEL == MODEL_SINGLE_SCATTERING) {
+        return g.add * scatter_intensity(p, d, taken);
+    } else if (SHADING != SHADING_AMBIENT_ONLY && g.have_texel) {
+        return g.add * surface_intensity_with(p, g.texel);
+    } else if (SHADING != SHADING_AMBIENT_ONLY) {
+        return g.add * surface_intensity(p);
+    }
+    return g.add * P.ambient;
+}
+
+// Adds a segment to the ray's sums, `taken` samples in; true once the ray may stop.
+fn composite(s: ptr<function, Integration>, x: f32, add: vec3<f32>, taken: u32) -> bool {
+    if (BACK_TO_FRONT) {
+        // From the far end: C = c_i + exp(-x_i) C. No early stop.
         if (MODEL == MODEL_EMISSION) {
-            if ((taken >> BLOCK_SHIFT) != blocks) {
-                blocks = taken >> BLOCK_SHIFT;
-                color += color_b;
-                color_b = vec3<f32>(0.0);
-            }
-            continue;
+            (*s).color += add;
+        } else {
+            (*s).color = add + exp(-x) * (*s).color;
         }
-        tau_b += x;
-        if ((taken >> BLOCK_SHIFT) != blocks) {
-            blocks = taken >> BLOCK_SHIFT;
-            color += color_b;
-            tau += tau_b;
-            color_b = vec3<f32>(0.0);
-            tau_b = 0.0;
+    } else {
+        (*s).color_b += (*s).trans * add;
+    }
+    if (MODEL == MODEL_EMISSION) {
+        if ((taken >> BLOCK_SHIFT) != (*s).blocks) {
+            (*s).blocks = taken >> BLOCK_SHIFT;
+            (*s).color += (*s).color_b;
+            (*s).color_b = vec3<f32>(0.0);
         }
-        if (!BACK_TO_FRONT) {
-            trans = exp(-(tau + tau_b));
-            // Threshold 0 means: stop at the first sample that is not empty.
-            if (EARLY_TERMINATION && tau + tau_b > 0.0 && 1.0 - trans >= P.threshold) {
-                stopped = true;
-                break;
-            }
-            // Below this nothing behind can show in 8 bits or even float.
-            if (trans < 1e-30) {
-                trans = 0.0;
-                stopped = true;
-                break;
-            }
+        return false;
+    }
+    (*s).tau_b += x;
+    if ((taken >> BLOCK_SHIFT) != (*s).blocks) {
+        (*s).blocks = taken >> BLOCK_SHIFT;
+        (*s).color += (*s).color_b;
+        (*s).tau += (*s).tau_b;
+        (*s).color_b = vec3<f32>(0.0);
+        (*s).tau_b = 0.0;
+    }
+    if (!BACK_TO_FRONT) {
+        (*s).trans = exp(-((*s).tau + (*s).tau_b));
+        // Threshold 0 means: stop at the first sample that is not empty.
+        if (EARLY_TERMINATION && (*s).tau + (*s).tau_b > 0.0 && 1.0 - (*s).trans >= P.threshold) {
+            return true;
+        }
+        // Below this nothing behind can show in 8 bits or even float.
+        if ((*s).trans < 1e-30) {
+            (*s).trans = 0.0;
+            return true;
         }
     }
-    color += color_b;
-    tau += tau_b;
+    return false;
+}
+
+// Folds the last partial sums and writes the pixel, or the ray's state when
+// a later pass continues it.
+fn end_integration(r: Ray, s: ptr<function, Integration>, stopped: bool, taken: u32) {
+    (*s).color += (*s).color_b;
+    (*s).tau += (*s).tau_b;
     count_samples(taken);
     if (!stopped && r.end < r.n) {
-        suspend(r, vec4<f32>(color, tau));
+        suspend(r, vec4<f32>((*s).color, (*s).tau));
         return;
     }
     if (!stopped) {
@@ -207,9 +236,50 @@ fn march_integrate(r: Ray) {
     }
     // 1 - exp(-tau) without cancellation: a faint ray keeps its alpha (and
     // so its straight colour C / alpha) instead of rounding to 0.
-    var alpha = select(one_minus_exp_neg(tau), 1.0, trans == 0.0);
+    var alpha = select(one_minus_exp_neg((*s).tau), 1.0, (*s).trans == 0.0);
     if (MODEL == MODEL_EMISSION) {
         alpha = 0.0;
     }
-    finish(r, vec4<f32>(color, alpha));
+    finish(r, vec4<f32>((*s).color, alpha));
+}
+
+// Emission–absorption, absorption, emission and single scattering: the
+// optical depth is summed along the ray (tau), transmittance is exp(-tau).
+fn march_integrate(r: Ray) {
+    var s = start_integration(r);
+    var stopped = false;
+    var taken = 0u;
+    let h = P.step_size;
+    for (var i = r.begin; i < r.end; i++) {
+        var si = i;
+        if (BACK_TO_FRONT) {
+            si = r.n - 1u - i;
+        }
+        let sp = span(r, si);
+        let mid = sp.x + 0.5 * sp.y;
+        let p = point_at(r, mid);
+        let tc = tex_of(p);
+        var g: Segment;
+        if (PRE_INTEGRATED && sp.y == h) {
+            g = preintegrated_segment(r, si, sp.x, &s);
+            taken += 1u;
+        } else {
+            g = midpoint_segment(volume_texel(tc), sp.y);
+            if (SKIP_EMPTY && !(g.x > 0.0)) {
+                let next = leap_past_empty(r, i, si, mid, tc);
+                if (next != 0xffffffffu) {
+                    taken += 1u;
+                    i = next - 1u;
+                    continue;
+                }
+            }
+            taken += 1u;
+        }
+        let add = lit(g, p, r.d, &taken);
+        if (composite(&s, g.x, add, taken)) {
+            stopped = true;
+            break;
+        }
+    }
+    end_integration(r, &s, stopped, taken);
 }

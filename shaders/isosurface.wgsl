@@ -10,7 +10,6 @@ fn below_iso(v: f32) -> bool {
 // bisection and placed by a secant step. The hit's ray parameter goes to
 // ray_state.x (infinity on a miss) for the depth image.
 fn march_iso(r: Ray) {
-    let iso = P.iso_value;
     var prev = 0.0;
     var prev_v = 0.0;
     var prev_known = true;
@@ -51,26 +50,8 @@ fn march_iso(r: Ray) {
                 prev_v = value_at(tex_of(point_at(r, prev)));
                 taken += 1u;
             }
-            var lo = prev;
-            var hi = at;
-            var vlo = prev_v;
-            var vhi = v;
-            for (var k = 0u; k < ISO_BISECTIONS; k++) {
-                let m = 0.5 * (lo + hi);
-                let vm = value_at(tex_of(point_at(r, m)));
-                if (below_iso(vm)) {
-                    lo = m;
-                    vlo = vm;
-                } else {
-                    hi = m;
-                    vhi = vm;
-                }
-            }
+            hit = locate_crossing(r, prev, at, prev_v, v);
             taken += ISO_BISECTIONS;
-            hit = hi;
-            if (!is_nan(vlo) && vhi > vlo) {
-                hit = lo + (hi - lo) * clamp((iso - vlo) / (vhi - vlo), 0.0, 1.0);
-            }
             found = true;
             break;
         }
@@ -78,18 +59,14 @@ fn march_iso(r: Ray) {
             // Below iso_value here; if no value in this cell reaches it,
             // leap to the first midpoint past the cell, keeping as the
             // bracket's lower end the last midpoint inside it.
-            let exit = empty_cell_exit(tex_of(point_at(r, at)), r.d);
-            if (exit >= 0.0) {
-                let k = ceil((at + exit) / P.step_size - 0.5 - r.shift - 1e-3);
-                let next = u32(clamp(k, f32(i), f32(r.end)));
-                if (next > i) {
-                    let sp = span(r, next - 1u);
-                    prev = sp.x + 0.5 * sp.y;
-                    // Sampled only if the next sample hits (below).
-                    prev_known = false;
-                    i = next;
-                    continue;
-                }
+            let next = iso_leap(r, i, at);
+            if (next > i) {
+                let sp = span(r, next - 1u);
+                prev = sp.x + 0.5 * sp.y;
+                // Sampled only if the next sample hits (below).
+                prev_known = false;
+                i = next;
+                continue;
             }
         }
         prev = at;
@@ -107,8 +84,49 @@ fn march_iso(r: Ray) {
         finish(r, vec4<f32>(0.0));
         return;
     }
+    shade_hit(r, hit);
+}
+
+// Bisection between offsets lo (below the iso value) and hi (reaching it),
+// then a secant step between the last bracket's values: the hit's offset.
+fn locate_crossing(r: Ray, lo0: f32, hi0: f32, vlo0: f32, vhi0: f32) -> f32 {
+    var lo = lo0;
+    var hi = hi0;
+    var vlo = vlo0;
+    var vhi = vhi0;
+    for (var k = 0u; k < ISO_BISECTIONS; k++) {
+        let m = 0.5 * (lo + hi);
+        let vm = value_at(tex_of(point_at(r, m)));
+        if (below_iso(vm)) {
+            lo = m;
+            vlo = vm;
+        } else {
+            hi = m;
+            vhi = vm;
+        }
+    }
+    var hit = hi;
+    if (!is_nan(vlo) && vhi > vlo) {
+        hit = lo + (hi - lo) * clamp((P.iso_value - vlo) / (vhi - vlo), 0.0, 1.0);
+    }
+    return hit;
+}
+
+// The first segment index past the empty cell holding offset `at` (never
+// before segment i), or i when the cell may reach the iso value.
+fn iso_leap(r: Ray, i: u32, at: f32) -> u32 {
+    let exit = empty_cell_exit(tex_of(point_at(r, at)), r.d);
+    if (exit < 0.0) {
+        return i;
+    }
+    let k = ceil((at + exit) / P.step_size - 0.5 - r.shift - 1e-3);
+    return u32(clamp(k, f32(i), f32(r.end)));
+}
+
+// The surface's colour, lit, and its distance for the depth image.
+fn shade_hit(r: Ray, hit: f32) {
     let p = point_at(r, hit);
-    let c = eval_lut(iso);
+    let c = eval_lut(P.iso_value);
     ray_state[r.idx] = vec4<f32>(r.t0 + hit, 0.0, 0.0, 0.0);
     finish(r, vec4<f32>(c.rgb * surface_intensity(p), 1.0));
 }
