@@ -62,8 +62,72 @@ fn preset(cls: &Bound<'_, PyType>, p: Preset) -> PyResult<Py<PyAny>> {
         .unbind())
 }
 
-#[pymethods]
-impl PyRenderConfig {
+/// The `#[pymethods]` block, with a getter and a setter generated for each
+/// field that maps one to one (`plain`) or through its name (`named`).
+macro_rules! render_config_methods {
+    (
+        plain { $($(#[$pm:meta])* $p:ident / $pset:ident : $pty:ty;)* }
+        named { $($(#[$nm:meta])* $n:ident / $nset:ident : $nty:ident;)* }
+        $($rest:tt)*
+    ) => {
+        #[pymethods]
+        impl PyRenderConfig {
+            $(
+                $(#[$pm])*
+                #[getter]
+                fn $p(&self) -> $pty {
+                    self.inner.$p
+                }
+                #[setter]
+                fn $pset(&mut self, v: $pty) {
+                    self.inner.$p = v;
+                }
+            )*
+            $(
+                $(#[$nm])*
+                #[getter]
+                fn $n(&self) -> &'static str {
+                    self.inner.$n.name()
+                }
+                #[setter]
+                fn $nset(&mut self, v: &str) -> PyResult<()> {
+                    self.inner.$n = $nty::parse(v).map_err(value_err)?;
+                    Ok(())
+                }
+            )*
+            $($rest)*
+        }
+    };
+}
+
+render_config_methods! {
+    plain {
+        step_size / set_step_size: f64;
+        max_steps / set_max_steps: i64;
+        early_ray_termination / set_early_ray_termination: bool;
+        opacity_threshold / set_opacity_threshold: f64;
+        reference_step_size / set_reference_step_size: f64;
+        /// The isosurface model's threshold (data units after uint scaling).
+        iso_value / set_iso_value: f64;
+        /// Henyey–Greenstein g in (-1, 1) for single scattering; 0 is isotropic.
+        anisotropy / set_anisotropy: f64;
+        /// Step of single scattering's shadow rays; 0 means step_size.
+        shadow_step_size / set_shadow_step_size: f64;
+        /// Start each pixel's sample grid at a random fraction of a step.
+        jitter / set_jitter: bool;
+        /// Integrate each segment from a (front, back) table (emission_absorption only).
+        pre_integrated / set_pre_integrated: bool;
+    }
+    named {
+        /// "exponential" (pyvr: 1 - exp(-a*d/ref)) or "power" (VTK: 1 - (1-a)^(d/ref)).
+        opacity_correction / set_opacity_correction: OpacityCorrection;
+        /// "emission_absorption" (default), "absorption", "emission",
+        /// "single_scattering", "mip", "minip", "average" or "isosurface".
+        model / set_model: Model;
+        /// "front_to_back" (default) or "back_to_front" (equal; ignores early termination).
+        order / set_order: Order;
+    }
+
     #[new]
     #[pyo3(signature = (step_size=0.01, max_steps=500, early_ray_termination=true, opacity_threshold=0.95, reference_step_size=0.01, opacity_correction="exponential", *, model="emission_absorption", iso_value=0.5, anisotropy=0.0, shadow_step_size=0.0, jitter=false, jitter_seed=0, pre_integrated=false, order="front_to_back"))]
     #[allow(clippy::too_many_arguments)]
@@ -105,130 +169,12 @@ impl PyRenderConfig {
     }
 
     #[getter]
-    fn step_size(&self) -> f64 {
-        self.inner.step_size
-    }
-    #[setter]
-    fn set_step_size(&mut self, v: f64) {
-        self.inner.step_size = v;
-    }
-    #[getter]
-    fn max_steps(&self) -> i64 {
-        self.inner.max_steps
-    }
-    #[setter]
-    fn set_max_steps(&mut self, v: i64) {
-        self.inner.max_steps = v;
-    }
-    #[getter]
-    fn early_ray_termination(&self) -> bool {
-        self.inner.early_ray_termination
-    }
-    #[setter]
-    fn set_early_ray_termination(&mut self, v: bool) {
-        self.inner.early_ray_termination = v;
-    }
-    #[getter]
-    fn opacity_threshold(&self) -> f64 {
-        self.inner.opacity_threshold
-    }
-    #[setter]
-    fn set_opacity_threshold(&mut self, v: f64) {
-        self.inner.opacity_threshold = v;
-    }
-    #[getter]
-    fn reference_step_size(&self) -> f64 {
-        self.inner.reference_step_size
-    }
-    #[setter]
-    fn set_reference_step_size(&mut self, v: f64) {
-        self.inner.reference_step_size = v;
-    }
-    /// "exponential" (pyvr: 1 - exp(-a*d/ref)) or "power" (VTK: 1 - (1-a)^(d/ref)).
-    #[getter]
-    fn opacity_correction(&self) -> &'static str {
-        self.inner.opacity_correction.name()
-    }
-    #[setter]
-    fn set_opacity_correction(&mut self, v: &str) -> PyResult<()> {
-        self.inner.opacity_correction =
-            OpacityCorrection::parse(v).map_err(|e| PyValueError::new_err(e.0))?;
-        Ok(())
-    }
-
-    /// "emission_absorption" (default), "absorption", "emission",
-    /// "single_scattering", "mip", "minip", "average" or "isosurface".
-    #[getter]
-    fn model(&self) -> &'static str {
-        self.inner.model.name()
-    }
-    #[setter]
-    fn set_model(&mut self, v: &str) -> PyResult<()> {
-        self.inner.model = Model::parse(v).map_err(value_err)?;
-        Ok(())
-    }
-    /// The isosurface model's threshold (data units after uint scaling).
-    #[getter]
-    fn iso_value(&self) -> f64 {
-        self.inner.iso_value
-    }
-    #[setter]
-    fn set_iso_value(&mut self, v: f64) {
-        self.inner.iso_value = v;
-    }
-    /// Henyey–Greenstein g in (-1, 1) for single scattering; 0 is isotropic.
-    #[getter]
-    fn anisotropy(&self) -> f64 {
-        self.inner.anisotropy
-    }
-    #[setter]
-    fn set_anisotropy(&mut self, v: f64) {
-        self.inner.anisotropy = v;
-    }
-    /// Step of single scattering's shadow rays; 0 means step_size.
-    #[getter]
-    fn shadow_step_size(&self) -> f64 {
-        self.inner.shadow_step_size
-    }
-    #[setter]
-    fn set_shadow_step_size(&mut self, v: f64) {
-        self.inner.shadow_step_size = v;
-    }
-    /// Start each pixel's sample grid at a random fraction of a step.
-    #[getter]
-    fn jitter(&self) -> bool {
-        self.inner.jitter
-    }
-    #[setter]
-    fn set_jitter(&mut self, v: bool) {
-        self.inner.jitter = v;
-    }
-    #[getter]
     fn jitter_seed(&self) -> u32 {
         self.inner.jitter_seed
     }
     #[setter]
     fn set_jitter_seed(&mut self, v: i64) -> PyResult<()> {
         self.inner.jitter_seed = seed(v)?;
-        Ok(())
-    }
-    /// Integrate each segment from a (front, back) table (emission_absorption only).
-    #[getter]
-    fn pre_integrated(&self) -> bool {
-        self.inner.pre_integrated
-    }
-    #[setter]
-    fn set_pre_integrated(&mut self, v: bool) {
-        self.inner.pre_integrated = v;
-    }
-    /// "front_to_back" (default) or "back_to_front" (equal; ignores early termination).
-    #[getter]
-    fn order(&self) -> &'static str {
-        self.inner.order.name()
-    }
-    #[setter]
-    fn set_order(&mut self, v: &str) -> PyResult<()> {
-        self.inner.order = Order::parse(v).map_err(value_err)?;
         Ok(())
     }
 

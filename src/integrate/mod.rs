@@ -1,0 +1,205 @@
+//! The ray integral in plain f64: the oracle the GPU path is tested against,
+//! and (with tiny steps) the converged image for accuracy measurements.
+//!
+//! Rule, shared with the shader: the ray's chord `[t0, t1]` through the box is
+//! cut into segments of length `step`, the last one shorter (and, with
+//! jitter, the first one too: the grid starts `shift` steps early, `shift`
+//! in (-1, 0]); each segment is sampled at its midpoint and contributes with
+//! its own length (Beer–Lambert opacity correction), front to back:
+//! `C += T * a * I * rgb`, `T = exp(-Σ x)`. The other models of
+//! [`crate::model::Model`] reuse the same segments.
+
+use crate::config::RenderConfig;
+use crate::model::jitter_shift;
+pub use crate::model::Order;
+use crate::scene::{Camera, Light};
+use crate::scene::Bounds;
+use crate::transfer::ValueMap;
+use crate::volume::VolumeView;
+use glam::DVec3;
+
+/// Everything one frame depends on.
+#[derive(Clone, Copy, Debug)]
+pub struct Frame<'a> {
+    pub volume: VolumeView<'a>,
+    /// RGBA entries at scalars `m / (M - 1)`.
+    pub lut: &'a [[f32; 4]],
+    pub camera: Camera,
+    pub light: Light,
+    pub config: RenderConfig,
+    pub width: u32,
+    pub height: u32,
+    /// 0: each segment is one midpoint sample (the engine's rule). Above 0
+    /// (converged references only): a segment is split in halves, down to
+    /// 2^-24 of a step, while the transfer function varies across the values
+    /// it spans by more than this, in optical depth or emitted colour per
+    /// piece. Steps and peaks of the TF are then located instead of sampled.
+    pub adaptive_tolerance: f64,
+    /// Sampled value -> transfer-function domain (a value range in data units).
+    pub value_map: ValueMap,
+    /// Rays march only inside this box (a crop of the volume's), if given.
+    pub clip: Option<Bounds>,
+}
+
+/// One ray's result: premultiplied colour and opacity, how many steps the
+/// ray would have needed when `max_steps` cut it short (else 0), and for
+/// the isosurface model the ray parameter of the hit (else infinity).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RayResult {
+    pub rgba: [f64; 4],
+    pub truncated_needed: u64,
+    pub depth: f64,
+}
+
+impl Default for RayResult {
+    fn default() -> Self {
+        RayResult { rgba: [0.0; 4], truncated_needed: 0, depth: f64::INFINITY }
+    }
+}
+
+mod compositing;
+mod lighting;
+mod optics;
+mod projections;
+#[cfg(test)]
+mod tests;
+
+use compositing::integrate;
+pub use lighting::light_transmittance;
+use projections::{isosurface, project};
+pub use optics::{corrected_alpha, extinction, one_minus_exp_neg, SHADOW_TAU_MAX};
+
+/// Segments a chord of `len` needs when the grid starts `shift` steps
+/// before its entry: `ceil(len / step - shift)`.
+pub fn segments_needed(len: f64, step: f64, shift: f64) -> u64 {
+    if len <= 0.0 {
+        return 0;
+    }
+    let n = (len / step - shift).ceil();
+    if n >= u64::MAX as f64 { u64::MAX } else { n as u64 }
+}
+
+/// One ray's chord and its segment grid.
+struct Ray {
+    origin: DVec3,
+    dir: DVec3,
+    t0: f64,
+    t1: f64,
+    shift: f64,
+    /// Segments marched (at most `max_steps`) and segments needed.
+    n: u64,
+    needed: u64,
+}
+
+impl Ray {
+    fn new(frame: &Frame, origin: DVec3, dir: DVec3, shift: f64) -> Option<Ray> {
+        let (t0, t1) = marched_box(frame)?.intersect(origin, dir)?;
+        let needed = segments_needed(t1 - t0, frame.config.step_size, shift);
+        let n = needed.min(frame.config.max_steps.max(0) as u64);
+        Some(Ray { origin, dir, t0, t1, shift, n, needed })
+    }
+
+    /// Segment `i`: its start as an offset from `t0`, and its length.
+    fn span(&self, step: f64, i: u64) -> (f64, f64) {
+        let a = i as f64 * step + self.shift * step;
+        let len = self.t1 - self.t0;
+        if a < 0.0 {
+            (0.0, ((1.0 + self.shift) * step).min(len))
+        } else {
+            (a, step.min(len - a).max(0.0))
+        }
+    }
+
+    fn at(&self, offset: f64) -> DVec3 {
+        self.origin + self.dir * (self.t0 + offset)
+    }
+
+    fn truncated(&self) -> u64 {
+        if self.n < self.needed { self.needed } else { 0 }
+    }
+}
+
+/// The box rays march in: the volume's, cropped by the clip box if any
+/// (None when the crop misses the volume). Shadow rays stop at it too.
+fn marched_box(frame: &Frame) -> Option<Bounds> {
+    match frame.clip {
+        Some(c) => frame.volume.bounds.intersection(&c),
+        None => Some(frame.volume.bounds),
+    }
+}
+
+/// The value the transfer function sees at `p` (gradients use the raw field:
+/// the map's positive scale leaves their direction unchanged).
+fn value(frame: &Frame, p: DVec3) -> f64 {
+    frame.value_map.apply(frame.volume.sample(frame.volume.bounds.to_unit(p)))
+}
+
+fn trace(frame: &Frame, origin: DVec3, dir: DVec3, shift: f64) -> RayResult {
+    let Some(ray) = Ray::new(frame, origin, dir, shift) else {
+        return RayResult::default();
+    };
+    match frame.config.model {
+        m if m.integrates() => integrate(frame, &ray),
+        m if m.projects() => project(frame, &ray),
+        _ => isosurface(frame, &ray),
+    }
+}
+
+/// One ray without jitter, in the config's model and order.
+pub fn integrate_ray(frame: &Frame, origin: DVec3, dir: DVec3) -> RayResult {
+    trace(frame, origin, dir, 0.0)
+}
+
+/// The same ray composited from the far end: `C = c_i + exp(-x_i) C`.
+/// Equal to front-to-back when early termination does not stop the ray; a
+/// check on both, since the two orders share no accumulation code.
+pub fn integrate_ray_back_to_front(frame: &Frame, origin: DVec3, dir: DVec3) -> RayResult {
+    let mut f = *frame;
+    f.config.order = Order::BackToFront;
+    trace(&f, origin, dir, 0.0)
+}
+
+/// A whole frame: premultiplied RGBA per pixel (row 0 at the bottom), the
+/// ray parameter of each isosurface hit (infinity elsewhere), and the
+/// largest step count a truncated ray needed (0 when none was cut short).
+pub struct Image {
+    pub rgba: Vec<[f64; 4]>,
+    pub depth: Vec<f64>,
+    pub truncated_needed: u64,
+}
+
+pub fn render(frame: &Frame) -> Result<(Vec<[f64; 4]>, u64), crate::scene::SceneError> {
+    render_image(frame).map(|im| (im.rgba, im.truncated_needed))
+}
+
+pub fn render_ordered(frame: &Frame, order: Order) -> Result<(Vec<[f64; 4]>, u64), crate::scene::SceneError> {
+    let mut f = *frame;
+    f.config.order = order;
+    render(&f)
+}
+
+pub fn render_image(frame: &Frame) -> Result<Image, crate::scene::SceneError> {
+    let basis = frame.camera.basis(frame.width, frame.height)?;
+    let (w, h) = (frame.width, frame.height);
+    let mut out = vec![RayResult::default(); w as usize * h as usize];
+    let threads = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
+    let rows_per = (h as usize).div_ceil(threads).max(1);
+    let cfg = frame.config;
+    std::thread::scope(|s| {
+        for (chunk, pixels) in out.chunks_mut(rows_per * w as usize).enumerate() {
+            s.spawn(move || {
+                for (idx, px) in pixels.iter_mut().enumerate() {
+                    let row = (chunk * rows_per + idx / w as usize) as u32;
+                    let col = (idx % w as usize) as u32;
+                    let shift = if cfg.jitter { jitter_shift(col, row, cfg.jitter_seed) as f64 } else { 0.0 };
+                    *px = trace(frame, basis.origin, basis.direction(col, row, w, h), shift);
+                }
+            });
+        }
+    });
+    Ok(Image {
+        rgba: out.iter().map(|r| r.rgba).collect(),
+        depth: out.iter().map(|r| r.depth).collect(),
+        truncated_needed: out.iter().map(|r| r.truncated_needed).max().unwrap_or(0),
+    })
+}
