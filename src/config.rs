@@ -1,6 +1,7 @@
 //! Render configuration: pyvr 0.4.1's presets, validation rules and cost
 //! estimates, plus the opacity-correction form (an extension).
 
+use crate::error::Error;
 use crate::model::{Model, Order};
 use std::fmt;
 
@@ -24,28 +25,16 @@ impl OpacityCorrection {
         }
     }
 
-    pub fn parse(s: &str) -> Result<Self, ConfigError> {
+    pub fn parse(s: &str) -> Result<Self, Error> {
         match s {
             "exponential" => Ok(OpacityCorrection::Exponential),
             "power" => Ok(OpacityCorrection::Power),
-            other => Err(ConfigError(format!(
+            other => Err(Error::InvalidInput(format!(
                 "opacity_correction must be 'exponential' or 'power', got '{other}'"
             ))),
         }
     }
 }
-
-/// A validation failure; the message is pyvr's where pyvr had one.
-#[derive(Clone, Debug, PartialEq)]
-pub struct ConfigError(pub String);
-
-impl fmt::Display for ConfigError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(&self.0)
-    }
-}
-
-impl std::error::Error for ConfigError {}
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RenderConfig {
@@ -154,16 +143,16 @@ impl RenderConfig {
 
     /// Checks pyvr's rules in pyvr's order, then the ones pyvr lacked
     /// (finite values, positive reference step). Returns the warnings to emit.
-    pub fn validate(&self) -> Result<Vec<String>, ConfigError> {
+    pub fn validate(&self) -> Result<Vec<String>, Error> {
         let mut warnings = Vec::new();
         if !self.step_size.is_finite() {
-            return Err(ConfigError(format!(
+            return Err(Error::InvalidInput(format!(
                 "step_size must be a finite number, got {}",
                 self.step_size
             )));
         }
         if self.step_size <= 0.0 {
-            return Err(ConfigError("step_size must be positive".into()));
+            return Err(Error::InvalidInput("step_size must be positive".into()));
         }
         if self.step_size > 1.0 {
             warnings.push(format!(
@@ -172,7 +161,7 @@ impl RenderConfig {
             ));
         }
         if self.max_steps < 1 {
-            return Err(ConfigError("max_steps must be at least 1".into()));
+            return Err(Error::InvalidInput("max_steps must be at least 1".into()));
         }
         if self.max_steps > 10000 {
             warnings.push(format!(
@@ -181,33 +170,33 @@ impl RenderConfig {
             ));
         }
         if !(0.0..=1.0).contains(&self.opacity_threshold) {
-            return Err(ConfigError(
+            return Err(Error::InvalidInput(
                 "opacity_threshold must be between 0.0 and 1.0".into(),
             ));
         }
         if !self.reference_step_size.is_finite() || self.reference_step_size <= 0.0 {
-            return Err(ConfigError(format!(
+            return Err(Error::InvalidInput(format!(
                 "reference_step_size must be a positive finite number, got {}",
                 py_float(self.reference_step_size)
             )));
         }
         if !self.iso_value.is_finite() {
-            return Err(ConfigError(format!("iso_value must be finite, got {}", py_float(self.iso_value))));
+            return Err(Error::InvalidInput(format!("iso_value must be finite, got {}", py_float(self.iso_value))));
         }
         if !(self.anisotropy > -1.0 && self.anisotropy < 1.0) {
-            return Err(ConfigError(format!(
+            return Err(Error::InvalidInput(format!(
                 "anisotropy must be in (-1, 1) (0 is isotropic), got {}",
                 py_float(self.anisotropy)
             )));
         }
         if !self.shadow_step_size.is_finite() || self.shadow_step_size < 0.0 {
-            return Err(ConfigError(format!(
+            return Err(Error::InvalidInput(format!(
                 "shadow_step_size must be a finite number >= 0 (0: use step_size), got {}",
                 py_float(self.shadow_step_size)
             )));
         }
         if self.pre_integrated && self.model != Model::EmissionAbsorption {
-            return Err(ConfigError(format!(
+            return Err(Error::InvalidInput(format!(
                 "pre_integrated applies to the 'emission_absorption' model only, not '{}'",
                 self.model.name()
             )));
@@ -308,22 +297,22 @@ mod tests {
         let mut c = RenderConfig::default();
         c.step_size = 0.0;
         c.max_steps = 0;
-        assert_eq!(c.validate().unwrap_err().0, "step_size must be positive");
+        assert_eq!(c.validate().unwrap_err().message(), "step_size must be positive");
         c.step_size = 0.01;
-        assert_eq!(c.validate().unwrap_err().0, "max_steps must be at least 1");
+        assert_eq!(c.validate().unwrap_err().message(), "max_steps must be at least 1");
         c.max_steps = 20000;
         c.step_size = 2.0;
         let w = c.validate().unwrap();
         assert_eq!(w.len(), 2);
         assert!(w[0].contains("step_size 2.0 is very large"));
         c.opacity_threshold = 1.5;
-        assert!(c.validate().unwrap_err().0.contains("opacity_threshold"));
+        assert!(c.validate().unwrap_err().message().contains("opacity_threshold"));
         c.opacity_threshold = 0.5;
         c.reference_step_size = 0.0;
-        assert!(c.validate().unwrap_err().0.contains("reference_step_size"));
+        assert!(c.validate().unwrap_err().message().contains("reference_step_size"));
         c.reference_step_size = 0.01;
         c.step_size = f64::NAN;
-        assert!(c.validate().unwrap_err().0.contains("finite"));
+        assert!(c.validate().unwrap_err().message().contains("finite"));
     }
 
     #[test]

@@ -5,6 +5,7 @@
 //! is compiled only with the `python` feature.
 
 pub mod config;
+pub mod error;
 pub mod gpu;
 pub mod integrate;
 pub mod model;

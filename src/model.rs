@@ -14,7 +14,7 @@
 //! | mip / minip / average | `a · c(v*)` | `a(v*)` of the projected value `v*` |
 //! | isosurface | `c(iso) · I(n)` at the first point with `v >= iso` | `1` on a hit |
 
-use crate::config::ConfigError;
+use crate::error::Error;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
 pub enum Model {
@@ -54,10 +54,10 @@ impl Model {
         }
     }
 
-    pub fn parse(s: &str) -> Result<Model, ConfigError> {
+    pub fn parse(s: &str) -> Result<Model, Error> {
         Model::ALL.into_iter().find(|m| m.name() == s).ok_or_else(|| {
             let names: Vec<&str> = Model::ALL.iter().map(|m| m.name()).collect();
-            ConfigError(format!("model must be one of {}, got '{s}'", names.join(", ")))
+            Error::InvalidInput(format!("model must be one of {}, got '{s}'", names.join(", ")))
         })
     }
 
@@ -115,11 +115,11 @@ impl Order {
         }
     }
 
-    pub fn parse(s: &str) -> Result<Order, ConfigError> {
+    pub fn parse(s: &str) -> Result<Order, Error> {
         match s {
             "front_to_back" => Ok(Order::FrontToBack),
             "back_to_front" => Ok(Order::BackToFront),
-            other => Err(ConfigError(format!("order must be 'front_to_back' or 'back_to_front', got '{other}'"))),
+            other => Err(Error::InvalidInput(format!("order must be 'front_to_back' or 'back_to_front', got '{other}'"))),
         }
     }
 }
@@ -162,7 +162,7 @@ mod tests {
         for m in Model::ALL {
             assert_eq!(Model::parse(m.name()).unwrap(), m);
         }
-        assert!(Model::parse("xray").unwrap_err().0.contains("emission_absorption"));
+        assert!(Model::parse("xray").unwrap_err().message().contains("emission_absorption"));
         assert_eq!(Order::parse("back_to_front").unwrap(), Order::BackToFront);
     }
 

@@ -2,19 +2,8 @@
 //! box intersection, in f64. The GPU path packs these into its uniforms; the
 //! f64 integrator uses them directly, so both march the same rays.
 
+use crate::error::Error;
 use glam::DVec3;
-use std::fmt;
-
-#[derive(Clone, Debug, PartialEq)]
-pub struct SceneError(pub String);
-
-impl fmt::Display for SceneError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(&self.0)
-    }
-}
-
-impl std::error::Error for SceneError {}
 
 /// The axis-aligned box the volume fills.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -30,12 +19,12 @@ impl Default for Bounds {
 }
 
 impl Bounds {
-    pub fn new(min: DVec3, max: DVec3) -> Result<Self, SceneError> {
+    pub fn new(min: DVec3, max: DVec3) -> Result<Self, Error> {
         if !min.is_finite() || !max.is_finite() {
-            return Err(SceneError("bounds must be finite".into()));
+            return Err(Error::InvalidInput("bounds must be finite".into()));
         }
         if !(max.cmpgt(min).all()) {
-            return Err(SceneError("max_bounds must be greater than min_bounds".into()));
+            return Err(Error::InvalidInput("max_bounds must be greater than min_bounds".into()));
         }
         Ok(Bounds { min, max })
     }
@@ -124,19 +113,19 @@ impl Camera {
     /// pyvr 2.3: `f = normalize(target - pos)`, `r = normalize(f x up)`, `u = r x f`.
     /// An up vector parallel to the view falls back to the world axis least
     /// aligned with it, so such cameras still render instead of giving NaN.
-    pub fn basis(&self, width: u32, height: u32) -> Result<RayBasis, SceneError> {
+    pub fn basis(&self, width: u32, height: u32) -> Result<RayBasis, Error> {
         if width == 0 || height == 0 {
-            return Err(SceneError(format!(
+            return Err(Error::InvalidInput(format!(
                 "width and height must be positive, got {width}x{height}"
             )));
         }
         for (name, v) in [("position", self.position), ("target", self.target), ("up", self.up)] {
             if !v.is_finite() {
-                return Err(SceneError(format!("camera {name} must be finite, got {v:?}")));
+                return Err(Error::InvalidInput(format!("camera {name} must be finite, got {v:?}")));
             }
         }
         if !(self.fov_y > 0.0 && self.fov_y < std::f64::consts::PI) {
-            return Err(SceneError(format!(
+            return Err(Error::InvalidInput(format!(
                 "fov must be between 0 and π radians, got {}",
                 self.fov_y
             )));
@@ -144,7 +133,7 @@ impl Camera {
         let to_target = self.target - self.position;
         let len = to_target.length();
         if !(len > 0.0) {
-            return Err(SceneError("camera position must differ from its target".into()));
+            return Err(Error::InvalidInput("camera position must differ from its target".into()));
         }
         let f = to_target / len;
         let mut r = f.cross(self.up);

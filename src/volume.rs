@@ -2,6 +2,7 @@
 //! optional normals, and the world box. Sampling here is the f64 twin of the
 //! shader's sampling (same clamp, same NaN and Inf rules).
 
+use crate::error::Error;
 use crate::scene::Bounds;
 use glam::DVec3;
 
@@ -55,22 +56,22 @@ pub enum Precision {
 pub const F16_MAX: f32 = 65504.0;
 
 impl Precision {
-    pub fn parse(name: &str) -> Result<Precision, VolumeError> {
+    pub fn parse(name: &str) -> Result<Precision, Error> {
         match name {
             "float32" => Ok(Precision::Float32),
             "float16" => Ok(Precision::Float16),
-            _ => Err(VolumeError(format!("precision must be 'float32' or 'float16', got {name:?}"))),
+            _ => Err(Error::InvalidInput(format!("precision must be 'float32' or 'float16', got {name:?}"))),
         }
     }
 
     /// Checks that float data `values` can be stored at this precision.
-    pub fn check(self, values: &[f32]) -> Result<(), VolumeError> {
+    pub fn check(self, values: &[f32]) -> Result<(), Error> {
         if self == Precision::Float32 {
             return Ok(());
         }
         match values.iter().find(|v| v.abs() > F16_MAX) {
             None => Ok(()),
-            Some(v) => Err(VolumeError(format!(
+            Some(v) => Err(Error::InvalidInput(format!(
                 "with precision='float16' values must be finite and within +-{F16_MAX} (the largest float16), \
                  and this volume holds {v}: use precision='float32'"
             ))),
@@ -102,38 +103,27 @@ pub struct VolumeView<'a> {
     pub bounds: Bounds,
 }
 
-#[derive(Clone, Debug, PartialEq)]
-pub struct VolumeError(pub String);
-
-impl std::fmt::Display for VolumeError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.0)
-    }
-}
-
-impl std::error::Error for VolumeError {}
-
 impl<'a> VolumeView<'a> {
     pub fn new(
         dims: [usize; 3],
         voxels: Voxels<'a>,
         normals: Option<&'a [f32]>,
         bounds: Bounds,
-    ) -> Result<Self, VolumeError> {
+    ) -> Result<Self, Error> {
         let n = dims.iter().try_fold(1usize, |acc, &d| acc.checked_mul(d));
-        let n = n.ok_or_else(|| VolumeError("volume shape overflows".into()))?;
+        let n = n.ok_or_else(|| Error::InvalidInput("volume shape overflows".into()))?;
         if dims.contains(&0) {
-            return Err(VolumeError(format!("volume shape must have no zero axis, got {dims:?}")));
+            return Err(Error::InvalidInput(format!("volume shape must have no zero axis, got {dims:?}")));
         }
         if voxels.len() != n {
-            return Err(VolumeError(format!(
+            return Err(Error::InvalidInput(format!(
                 "volume data has {} voxels but shape {dims:?} needs {n}",
                 voxels.len()
             )));
         }
         if let Some(nr) = normals {
             if nr.len() != 3 * n {
-                return Err(VolumeError(format!(
+                return Err(Error::InvalidInput(format!(
                     "normals must have shape {:?}, got {} values",
                     [dims[0], dims[1], dims[2], 3],
                     nr.len()

@@ -313,3 +313,16 @@ fn isosurface_matches_the_oracle() {
     }
     assert!(hits > 10, "{hits}");
 }
+
+#[test]
+fn errors_say_whose_move_it_is() {
+    use pyvr_core::error::Error;
+    assert!(matches!(GpuRenderer::new(0, 4), Err(Error::InvalidInput(_))));
+    assert!(matches!(GpuRenderer::new(1 << 30, 1 << 30), Err(Error::DeviceLimit(_))));
+    let mut gpu = GpuRenderer::new(4, 4).unwrap();
+    let camera = Camera { position: DVec3::new(3.0, 0.0, 0.0), target: DVec3::ZERO, up: DVec3::Z, fov_y: 0.8 };
+    let light = Light { position: DVec3::ONE, target: DVec3::ZERO, ambient: 0.2, diffuse: 0.8, kind: LightKind::Directional };
+    let err = gpu.render(&camera, &light, &RenderConfig::default()).unwrap_err();
+    assert!(matches!(err, Error::InvalidInput(ref m) if m.starts_with("no volume loaded")), "{err}");
+    assert!(matches!(gpu.set_lut(&[]), Err(Error::InvalidInput(_))));
+}

@@ -1,18 +1,8 @@
 //! One wgpu device per process, shared by every renderer: adapter choice,
 //! the limits and features actually present, and error capture.
 
+use crate::error::Error;
 use std::sync::{Arc, Mutex, OnceLock};
-
-#[derive(Clone, Debug, PartialEq)]
-pub struct GpuError(pub String);
-
-impl std::fmt::Display for GpuError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.0)
-    }
-}
-
-impl std::error::Error for GpuError {}
 
 pub struct GpuContext {
     pub device: wgpu::Device,
@@ -24,20 +14,20 @@ pub struct GpuContext {
     pub(crate) uncaptured: Arc<Mutex<Vec<String>>>,
 }
 
-static CONTEXT: OnceLock<Result<Arc<GpuContext>, GpuError>> = OnceLock::new();
+static CONTEXT: OnceLock<Result<Arc<GpuContext>, Error>> = OnceLock::new();
 
 /// Which backends to try. `PYVR_BACKEND` (vulkan, metal, dx12, gl) or wgpu's
 /// `WGPU_BACKEND` override; otherwise the native APIs only. GL is left out
 /// unless asked for, because creating a GL instance takes over the thread's
 /// EGL context (moderngl's, in the same process).
-fn requested_backends() -> Result<wgpu::Backends, GpuError> {
+fn requested_backends() -> Result<wgpu::Backends, Error> {
     if let Ok(v) = std::env::var("PYVR_BACKEND") {
         return match v.to_ascii_lowercase().as_str() {
             "vulkan" => Ok(wgpu::Backends::VULKAN),
             "metal" => Ok(wgpu::Backends::METAL),
             "dx12" => Ok(wgpu::Backends::DX12),
             "gl" | "gles" => Ok(wgpu::Backends::GL),
-            other => Err(GpuError(format!(
+            other => Err(Error::InvalidInput(format!(
                 "PYVR_BACKEND must be one of vulkan, metal, dx12, gl; got '{other}'"
             ))),
         };
@@ -47,11 +37,11 @@ fn requested_backends() -> Result<wgpu::Backends, GpuError> {
 
 impl GpuContext {
     /// The process-wide context, created on first use.
-    pub fn get() -> Result<Arc<GpuContext>, GpuError> {
+    pub fn get() -> Result<Arc<GpuContext>, Error> {
         CONTEXT.get_or_init(|| GpuContext::create().map(Arc::new)).clone()
     }
 
-    fn create() -> Result<GpuContext, GpuError> {
+    fn create() -> Result<GpuContext, Error> {
         let backends = requested_backends()?;
         let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
         desc.backends = backends;
@@ -65,7 +55,7 @@ impl GpuContext {
             apply_limit_buckets: false,
         }))
         .map_err(|e| {
-            GpuError(format!(
+            Error::Gpu(format!(
                 "no GPU adapter found for backends {backends:?} ({e}). On a machine without a \
                  GPU install Mesa's software Vulkan driver (Debian/Ubuntu: apt-get install \
                  mesa-vulkan-drivers), or set PYVR_BACKEND"
@@ -85,7 +75,7 @@ impl GpuContext {
             memory_hints: wgpu::MemoryHints::Performance,
             trace: wgpu::Trace::Off,
         }))
-        .map_err(|e| GpuError(format!("could not open the GPU device: {e}")))?;
+        .map_err(|e| Error::Gpu(format!("could not open the GPU device: {e}")))?;
         let uncaptured = Arc::new(Mutex::new(Vec::new()));
         let sink = uncaptured.clone();
         // The default handler panics; a panic must never reach Python.
@@ -99,18 +89,18 @@ impl GpuContext {
 
     /// Runs `f` inside validation and out-of-memory error scopes and turns
     /// what they catch into an error.
-    pub fn scoped<T>(&self, what: &str, f: impl FnOnce() -> T) -> Result<T, GpuError> {
+    pub fn scoped<T>(&self, what: &str, f: impl FnOnce() -> T) -> Result<T, Error> {
         let oom = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let val = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let out = f();
         let v = pollster::block_on(val.pop());
         let m = pollster::block_on(oom.pop());
         if let Some(e) = v.or(m) {
-            return Err(GpuError(format!("{what} failed on the GPU: {e}")));
+            return Err(Error::Gpu(format!("{what} failed on the GPU: {e}")));
         }
         if let Ok(mut u) = self.uncaptured.lock() {
             if let Some(e) = u.drain(..).next() {
-                return Err(GpuError(format!("{what} failed on the GPU: {e}")));
+                return Err(Error::Gpu(format!("{what} failed on the GPU: {e}")));
             }
         }
         Ok(out)
@@ -129,7 +119,7 @@ impl GpuContext {
         format: wgpu::TextureFormat,
         mip_level_count: u32,
         data: &[u8],
-    ) -> Result<wgpu::TextureView, GpuError> {
+    ) -> Result<wgpu::TextureView, Error> {
         use wgpu::util::DeviceExt;
         self.scoped(what, || {
             self.device

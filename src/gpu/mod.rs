@@ -14,5 +14,5 @@ pub mod renderer;
 pub mod resources;
 pub mod shader;
 
-pub use context::{GpuContext, GpuError};
+pub use context::GpuContext;
 pub use renderer::{FrameStats, GpuRenderer};

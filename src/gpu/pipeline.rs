@@ -4,7 +4,8 @@
 //! and stay cached for the life of the process.
 
 use super::bindings;
-use super::context::{GpuContext, GpuError};
+use super::context::GpuContext;
+use crate::error::Error;
 use super::shader;
 use crate::config::{OpacityCorrection, RenderConfig};
 use crate::model::{Model, Order};
@@ -155,7 +156,7 @@ fn texture2d(binding: u32) -> wgpu::BindGroupLayoutEntry {
 }
 
 impl Pipelines {
-    pub fn new(ctx: &GpuContext) -> Result<Pipelines, GpuError> {
+    pub fn new(ctx: &GpuContext) -> Result<Pipelines, Error> {
         let device = &ctx.device;
         ctx.scoped("compiling the ray-marching shader", || {
             let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -210,8 +211,8 @@ impl Pipelines {
         })
     }
 
-    pub fn get(&self, ctx: &GpuContext, v: Variant) -> Result<wgpu::ComputePipeline, GpuError> {
-        let mut cache = self.cache.lock().map_err(|_| GpuError("pipeline cache poisoned".into()))?;
+    pub fn get(&self, ctx: &GpuContext, v: Variant) -> Result<wgpu::ComputePipeline, Error> {
+        let mut cache = self.cache.lock().map_err(|_| Error::Gpu("pipeline cache poisoned".into()))?;
         if let Some(p) = cache.get(&v) {
             return Ok(p.clone());
         }

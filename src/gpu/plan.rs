@@ -6,7 +6,7 @@
 //! dispatches, so long rays are marched over several passes, their state
 //! kept per pixel in between.
 
-use super::context::GpuError;
+use crate::error::Error;
 use crate::config::RenderConfig;
 use crate::model::Model;
 use crate::scene::Bounds;
@@ -37,7 +37,7 @@ pub struct PassPlan {
 /// The passes for rays from `camera` through `bounds` at `cfg`.
 /// `shadow_rays`: single scattering with a light, where every step may march
 /// a shadow ray across the box.
-pub fn plan(cfg: &RenderConfig, bounds: &Bounds, camera: DVec3, shadow_rays: bool) -> Result<PassPlan, GpuError> {
+pub fn plan(cfg: &RenderConfig, bounds: &Bounds, camera: DVec3, shadow_rays: bool) -> Result<PassPlan, Error> {
     let max_steps = cfg.max_steps.clamp(0, u32::MAX as i64) as u64;
     let longest = bounds.max_chord_from(camera);
     let max_n = cfg.steps_for_length(longest).saturating_add(2).min(max_steps);
@@ -46,7 +46,7 @@ pub fn plan(cfg: &RenderConfig, bounds: &Bounds, camera: DVec3, shadow_rays: boo
         let diagonal = bounds.extent().length();
         let shadow = (diagonal / cfg.shadow_step()).ceil() + 1.0;
         if !(shadow <= MAX_SHADOW_STEPS as f64) {
-            return Err(GpuError(format!(
+            return Err(Error::InvalidInput(format!(
                 "shadow rays of up to {shadow} steps exceed the limit of {MAX_SHADOW_STEPS}: \
                  shadow_step_size must be at least {:.3e} for these bounds",
                 diagonal / MAX_SHADOW_STEPS as f64
@@ -56,7 +56,7 @@ pub fn plan(cfg: &RenderConfig, bounds: &Bounds, camera: DVec3, shadow_rays: boo
     }
     let passes = max_n.div_ceil(pass_steps).max(1);
     if passes > u32::MAX as u64 {
-        return Err(GpuError(format!("rays of {max_n} steps need too many passes; use a larger step_size")));
+        return Err(Error::InvalidInput(format!("rays of {max_n} steps need too many passes; use a larger step_size")));
     }
     Ok(PassPlan {
         passes: passes as u32,
@@ -102,7 +102,7 @@ mod tests {
         assert_eq!(p.pass_steps as u64, PASS_ITERATIONS / (shadow + 1));
         let tiny = RenderConfig { shadow_step_size: 1e-6, ..cfg };
         let err = plan(&tiny, &cube(), DVec3::new(3.0, 0.0, 0.0), true).unwrap_err();
-        assert!(err.0.contains("shadow_step_size must be at least"), "{}", err.0);
+        assert!(matches!(err, Error::InvalidInput(ref m) if m.contains("shadow_step_size must be at least")), "{err}");
     }
 
     #[test]

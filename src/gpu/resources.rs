@@ -3,7 +3,8 @@
 //! table, and the buffers a frame writes. Each is rebuilt only when its
 //! input changes.
 
-use super::context::{GpuContext, GpuError};
+use super::context::GpuContext;
+use crate::error::Error;
 use super::half::{f16_to_f32, f32_to_f16};
 use crate::config::OpacityCorrection;
 use crate::occupancy::{pyramid, MinMaxGrid};
@@ -33,17 +34,17 @@ pub struct VolumeGpu {
 
 impl VolumeGpu {
     /// Uploads `vol`, storing float data at `precision`.
-    pub fn upload(ctx: &GpuContext, vol: &VolumeView, precision: Precision) -> Result<VolumeGpu, GpuError> {
+    pub fn upload(ctx: &GpuContext, vol: &VolumeView, precision: Precision) -> Result<VolumeGpu, Error> {
         let max3d = ctx.limits.max_texture_dimension_3d as usize;
         if let Some(&big) = vol.dims.iter().find(|&&d| d > max3d) {
-            return Err(GpuError(format!(
+            return Err(Error::DeviceLimit(format!(
                 "volume shape {:?} has an axis of {big} voxels, over this device's 3-D texture limit \
                  of {max3d}",
                 vol.dims
             )));
         }
         if let (Voxels::F32(v), Precision::Float16) = (vol.voxels, precision) {
-            precision.check(v).map_err(|e| GpuError(e.0))?;
+            precision.check(v)?;
             return Self::upload_f16(ctx, vol, v);
         }
         let unorm16 = ctx.features.contains(wgpu::Features::TEXTURE_FORMAT_16BIT_NORM);
@@ -97,7 +98,7 @@ impl VolumeGpu {
     /// Float data as float16: R16Float, or with normals one Rgba16Float texel
     /// (value, normal) per voxel, so that a lit sample fetches once. The
     /// occupancy grid is built from the rounded values the device reads.
-    fn upload_f16(ctx: &GpuContext, vol: &VolumeView, values: &[f32]) -> Result<VolumeGpu, GpuError> {
+    fn upload_f16(ctx: &GpuContext, vol: &VolumeView, values: &[f32]) -> Result<VolumeGpu, Error> {
         let halves: Vec<u16> = values.iter().map(|&v| f32_to_f16(v)).collect();
         // Built before the texels so that the rounded copy is freed first
         // (a 512^3 volume's texels alone take 1 GB).
@@ -152,7 +153,7 @@ fn extent_of([s0, s1, s2]: [usize; 3]) -> wgpu::Extent3d {
 /// lighting error this allows is under 0.4% (against f32 normals: at most 1
 /// level, mean 0.004), and on lavapipe the lit frame is 18% faster than with
 /// Rgba16Float.
-fn upload_normals(ctx: &GpuContext, size: wgpu::Extent3d, n: &[f32]) -> Result<(wgpu::TextureView, u64), GpuError> {
+fn upload_normals(ctx: &GpuContext, size: wgpu::Extent3d, n: &[f32]) -> Result<(wgpu::TextureView, u64), Error> {
     let mut packed: Vec<i8> = Vec::with_capacity(n.len() / 3 * 4);
     for c in n.chunks_exact(3) {
         let u = unit_direction([c[0], c[1], c[2]]);
@@ -205,13 +206,13 @@ impl Tables {
     /// Uploads the table: a texture fetch is far cheaper than an indexed
     /// storage-buffer read on CPU drivers; f16 (where f32 cannot be filtered)
     /// is within 0.13 of an 8-bit level. Returns the bytes written.
-    pub fn upload_lut(&mut self, ctx: &GpuContext, lut: &[[f32; 4]]) -> Result<u64, GpuError> {
+    pub fn upload_lut(&mut self, ctx: &GpuContext, lut: &[[f32; 4]]) -> Result<u64, Error> {
         if lut.is_empty() {
-            return Err(GpuError("the transfer-function table must have at least one entry".into()));
+            return Err(Error::InvalidInput("the transfer-function table must have at least one entry".into()));
         }
         let max = ctx.limits.max_texture_dimension_2d as usize;
         if lut.len() > max {
-            return Err(GpuError(format!(
+            return Err(Error::DeviceLimit(format!(
                 "transfer-function table of {} entries exceeds this device's limit of {max} entries",
                 lut.len()
             )));
@@ -227,7 +228,7 @@ impl Tables {
 
     /// Builds the pre-integration table for `key` unless the current one was
     /// built for it. Returns the bytes written (0 when kept).
-    pub fn ensure_preint(&mut self, ctx: &GpuContext, key: PreintKey) -> Result<u64, GpuError> {
+    pub fn ensure_preint(&mut self, ctx: &GpuContext, key: PreintKey) -> Result<u64, Error> {
         if self.preint.as_ref().is_some_and(|(_, k)| *k == key) {
             return Ok(0);
         }
@@ -272,7 +273,7 @@ impl Occupancy {
 
     /// Uploads the grid `occ` (1 = may show) of `grid`'s cells, built from
     /// `source`. Returns the bytes written.
-    pub fn upload(&mut self, ctx: &GpuContext, grid: &MinMaxGrid, occ: &[u8], source: OccSource) -> Result<u64, GpuError> {
+    pub fn upload(&mut self, ctx: &GpuContext, grid: &MinMaxGrid, occ: &[u8], source: OccSource) -> Result<u64, Error> {
         let [g0, g1, g2] = grid.dims;
         let largest = g0.max(g1).max(g2) as u32;
         let levels = (32 - largest.leading_zeros()).clamp(1, 4) as usize;
@@ -295,7 +296,7 @@ pub struct Output {
 }
 
 impl Output {
-    pub fn new(ctx: &GpuContext, width: u32, height: u32) -> Result<Output, GpuError> {
+    pub fn new(ctx: &GpuContext, width: u32, height: u32) -> Result<Output, Error> {
         let size = width as u64 * height as u64 * 16;
         let device = &ctx.device;
         ctx.scoped("allocating the output image", || Output {
@@ -328,7 +329,7 @@ pub struct RayState {
 }
 
 impl RayState {
-    pub fn new(ctx: &GpuContext, pixels: u64) -> Result<RayState, GpuError> {
+    pub fn new(ctx: &GpuContext, pixels: u64) -> Result<RayState, Error> {
         let device = &ctx.device;
         ctx.scoped("allocating ray state", || RayState {
             state: device.create_buffer(&wgpu::BufferDescriptor {
@@ -360,7 +361,7 @@ pub struct Fixed {
 }
 
 impl Fixed {
-    pub fn new(ctx: &GpuContext) -> Result<Fixed, GpuError> {
+    pub fn new(ctx: &GpuContext) -> Result<Fixed, Error> {
         let device = &ctx.device;
         let no_normals = ctx.scoped("allocating renderer buffers", || {
             device

@@ -168,17 +168,17 @@ pub struct Image {
     pub truncated_needed: u64,
 }
 
-pub fn render(frame: &Frame) -> Result<(Vec<[f64; 4]>, u64), crate::scene::SceneError> {
+pub fn render(frame: &Frame) -> Result<(Vec<[f64; 4]>, u64), crate::error::Error> {
     render_image(frame).map(|im| (im.rgba, im.truncated_needed))
 }
 
-pub fn render_ordered(frame: &Frame, order: Order) -> Result<(Vec<[f64; 4]>, u64), crate::scene::SceneError> {
+pub fn render_ordered(frame: &Frame, order: Order) -> Result<(Vec<[f64; 4]>, u64), crate::error::Error> {
     let mut f = *frame;
     f.config.order = order;
     render(&f)
 }
 
-pub fn render_image(frame: &Frame) -> Result<Image, crate::scene::SceneError> {
+pub fn render_image(frame: &Frame) -> Result<Image, crate::error::Error> {
     let basis = frame.camera.basis(frame.width, frame.height)?;
     let (w, h) = (frame.width, frame.height);
     let mut out = vec![RayResult::default(); w as usize * h as usize];

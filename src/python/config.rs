@@ -4,6 +4,7 @@
 use crate::config::{OpacityCorrection, Preset, RenderConfig};
 use crate::model::{Model, Order};
 use pyo3::exceptions::{PyUserWarning, PyValueError};
+use super::errors::to_py;
 use pyo3::prelude::*;
 use pyo3::types::PyType;
 use std::ffi::CString;
@@ -42,17 +43,13 @@ pub fn warn_all(py: Python<'_>, messages: &[String]) -> PyResult<()> {
 
 /// Validates, emitting pyvr's UserWarnings; errors become ValueError.
 pub fn checked(py: Python<'_>, c: &RenderConfig) -> PyResult<()> {
-    let warnings = c.validate().map_err(|e| PyValueError::new_err(e.0))?;
+    let warnings = c.validate().map_err(to_py)?;
     warn_all(py, &warnings)
 }
 
 /// A jitter seed must fit the shader's 32-bit hash.
 fn seed(v: i64) -> PyResult<u32> {
     u32::try_from(v).map_err(|_| PyValueError::new_err(format!("jitter_seed must be in [0, 2**32 - 1], got {v}")))
-}
-
-fn value_err(e: crate::config::ConfigError) -> PyErr {
-    PyValueError::new_err(e.0)
 }
 
 fn preset(cls: &Bound<'_, PyType>, p: Preset) -> PyResult<Py<PyAny>> {
@@ -91,7 +88,7 @@ macro_rules! render_config_methods {
                 }
                 #[setter]
                 fn $nset(&mut self, v: &str) -> PyResult<()> {
-                    self.inner.$n = $nty::parse(v).map_err(value_err)?;
+                    self.inner.$n = $nty::parse(v).map_err(to_py)?;
                     Ok(())
                 }
             )*
@@ -154,15 +151,15 @@ render_config_methods! {
             early_ray_termination,
             opacity_threshold,
             reference_step_size,
-            opacity_correction: OpacityCorrection::parse(opacity_correction).map_err(value_err)?,
-            model: Model::parse(model).map_err(value_err)?,
+            opacity_correction: OpacityCorrection::parse(opacity_correction).map_err(to_py)?,
+            model: Model::parse(model).map_err(to_py)?,
             iso_value,
             anisotropy,
             shadow_step_size,
             jitter,
             jitter_seed: seed(jitter_seed)?,
             pre_integrated,
-            order: Order::parse(order).map_err(value_err)?,
+            order: Order::parse(order).map_err(to_py)?,
         };
         checked(py, &inner)?;
         Ok(PyRenderConfig { inner })

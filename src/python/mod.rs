@@ -1,6 +1,7 @@
 //! The PyO3 module `pyvr._core`: the only place pyo3 is used.
 
 mod config;
+mod errors;
 mod renderer;
 mod transfer;
 
@@ -11,13 +12,13 @@ use pyo3::prelude::*;
 fn device_info() -> PyResult<String> {
     crate::gpu::GpuContext::get()
         .map(|c| c.describe())
-        .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.0))
+        .map_err(errors::to_py)
 }
 
 /// The limits that bound what can be rendered on this device.
 #[pyfunction]
 fn device_limits(py: Python<'_>) -> PyResult<Bound<'_, pyo3::types::PyDict>> {
-    let ctx = crate::gpu::GpuContext::get().map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.0))?;
+    let ctx = crate::gpu::GpuContext::get().map_err(errors::to_py)?;
     let d = pyo3::types::PyDict::new(py);
     let l = &ctx.limits;
     d.set_item("max_texture_dimension_3d", l.max_texture_dimension_3d)?;

@@ -5,30 +5,22 @@
 
 use super::config::PyRenderConfig;
 use crate::quantize::to_u8;
-use crate::gpu::{GpuError, GpuRenderer};
+use super::errors::{to_py, to_py_in};
+use crate::gpu::GpuRenderer;
 use crate::integrate::{self, Frame};
 use crate::scene::{Bounds, Camera, Light, LightKind};
 use crate::transfer::ValueMap;
 use crate::volume::{Precision, VolumeView, Voxels};
 use glam::DVec3;
 use numpy::{PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray2, PyReadonlyArray3, PyReadonlyArray4, PyUntypedArrayMethods};
-use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyValueError};
+use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-
-pub fn gpu_err(e: GpuError) -> PyErr {
-    // Limits and bad arguments are the caller's to fix; the rest is ours.
-    if e.0.contains("limit") || e.0.contains("must") || e.0.contains("no volume") || e.0.contains("no transfer") {
-        PyValueError::new_err(e.0)
-    } else {
-        PyRuntimeError::new_err(e.0)
-    }
-}
 
 type Vec3 = (f64, f64, f64);
 
 fn clip_bounds((lo, hi): (Vec3, Vec3)) -> PyResult<Bounds> {
-    Bounds::new(DVec3::from(lo), DVec3::from(hi)).map_err(|e| PyValueError::new_err(format!("crop box: {}", e.0)))
+    Bounds::new(DVec3::from(lo), DVec3::from(hi)).map_err(|e| to_py_in("crop box", e))
 }
 /// (position, target, up, vertical fov in radians)
 type CameraArgs = (Vec3, Vec3, Vec3, f64);
@@ -105,11 +97,11 @@ fn with_volume<R>(
     let (dims, voxels) = arr.view()?;
     let n = normals_slice(normals, dims)?;
     let b = bounds_from(min_bounds, max_bounds)?;
-    f(VolumeView::new(dims, voxels, n, b).map_err(|e| PyValueError::new_err(e.0))?)
+    f(VolumeView::new(dims, voxels, n, b).map_err(to_py)?)
 }
 
 fn bounds_from(min: Vec3, max: Vec3) -> PyResult<Bounds> {
-    Bounds::new(dv(min), dv(max)).map_err(|e| PyValueError::new_err(e.0))
+    Bounds::new(dv(min), dv(max)).map_err(to_py)
 }
 
 fn normals_slice<'a>(n: &'a Option<PyReadonlyArray4<'_, f32>>, dims: [usize; 3]) -> PyResult<Option<&'a [f32]>> {
@@ -150,12 +142,12 @@ pub struct PyRenderer {
 impl PyRenderer {
     #[new]
     fn new(py: Python<'_>, width: u32, height: u32) -> PyResult<Self> {
-        let inner = py.detach(|| GpuRenderer::new(width, height)).map_err(gpu_err)?;
+        let inner = py.detach(|| GpuRenderer::new(width, height)).map_err(to_py)?;
         Ok(PyRenderer { inner })
     }
 
     fn resize(&mut self, width: u32, height: u32) -> PyResult<()> {
-        self.inner.resize(width, height).map_err(gpu_err)
+        self.inner.resize(width, height).map_err(to_py)
     }
 
     #[getter]
@@ -180,23 +172,23 @@ impl PyRenderer {
         max_bounds: Vec3,
         precision: &str,
     ) -> PyResult<()> {
-        let precision = Precision::parse(precision).map_err(|e| PyValueError::new_err(e.0))?;
+        let precision = Precision::parse(precision).map_err(to_py)?;
         let inner = &mut self.inner;
         with_volume(data, &normals, min_bounds, max_bounds, |view| {
-            py.detach(|| inner.set_volume_with_precision(&view, precision)).map_err(gpu_err)
+            py.detach(|| inner.set_volume_with_precision(&view, precision)).map_err(to_py)
         })
     }
 
     /// Uploads an (M, 4) float32 RGBA table, entries at scalars m / (M - 1).
     fn set_lut(&mut self, lut: PyReadonlyArray2<'_, f32>) -> PyResult<()> {
         let rows = lut_rows(&lut)?;
-        self.inner.set_lut(&rows).map_err(gpu_err)
+        self.inner.set_lut(&rows).map_err(to_py)
     }
 
     /// Sampled value -> table domain: `tf = sample * scale + offset`.
     fn set_value_map(&mut self, scale: f64, offset: f64) -> PyResult<()> {
         let map = ValueMap::new(scale, offset).map_err(PyValueError::new_err)?;
-        self.inner.set_value_map(map).map_err(gpu_err)
+        self.inner.set_value_map(map).map_err(to_py)
     }
 
     /// Rays march only inside the box (min, max) in world coordinates; None
@@ -221,7 +213,7 @@ impl PyRenderer {
         let cfg = config.inner;
         let (w, h) = self.inner.size();
         let inner = &mut self.inner;
-        let (img, stats) = py.detach(|| inner.render(&camera, &light, &cfg)).map_err(gpu_err)?;
+        let (img, stats) = py.detach(|| inner.render(&camera, &light, &cfg)).map_err(to_py)?;
         let arr = PyArray1::from_vec(py, img).reshape([h as usize, w as usize, 4])?;
         let d = PyDict::new(py);
         d.set_item("truncated_needed", stats.truncated_needed)?;
@@ -268,7 +260,7 @@ impl PyRenderer {
     fn depth<'py>(&mut self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyArray2<f32>>>> {
         let (w, h) = self.inner.size();
         let inner = &mut self.inner;
-        match py.detach(|| inner.depth()).map_err(gpu_err)? {
+        match py.detach(|| inner.depth()).map_err(to_py)? {
             None => Ok(None),
             Some(d) => Ok(Some(PyArray1::from_vec(py, d).reshape([h as usize, w as usize])?)),
         }
@@ -328,14 +320,14 @@ pub fn integrate_reference<'py>(
     let clip = clip.map(clip_bounds).transpose()?;
     let mut cfg = config.inner;
     if let Some(o) = order {
-        cfg.order = crate::model::Order::parse(o).map_err(|e| PyValueError::new_err(e.0))?;
+        cfg.order = crate::model::Order::parse(o).map_err(to_py)?;
     }
-    cfg.validate().map_err(|e| PyValueError::new_err(e.0))?;
+    cfg.validate().map_err(to_py)?;
     let camera = camera_from(&camera);
     let light = light_from(&light)?;
     let img = with_volume(data, &normals, min_bounds, max_bounds, |volume| {
         let frame = Frame { volume, lut: &rows, camera, light, config: cfg, width, height, adaptive_tolerance, value_map, clip };
-        py.detach(|| integrate::render_image(&frame)).map_err(|e| PyValueError::new_err(e.0))
+        py.detach(|| integrate::render_image(&frame)).map_err(to_py)
     })?;
     let flat: Vec<f64> = img.rgba.into_iter().flatten().collect();
     let shape = [height as usize, width as usize];

@@ -3,7 +3,7 @@
 use super::{FrameStats, GpuRenderer, SKIP_MIN_EMPTY, STATS_BYTES};
 use crate::config::RenderConfig;
 use crate::gpu::bindings;
-use crate::gpu::context::GpuError;
+use crate::error::Error;
 use crate::gpu::params::{FrameInputs, Params};
 use crate::gpu::pipeline::{Layout, Variant, WORKGROUP};
 use crate::gpu::plan::{plan, PassPlan};
@@ -21,10 +21,10 @@ impl GpuRenderer {
         light: &Light,
         cfg: &RenderConfig,
         out: &mut [f32],
-    ) -> Result<FrameStats, GpuError> {
+    ) -> Result<FrameStats, Error> {
         let n = self.width as usize * self.height as usize * 4;
         if out.len() != n {
-            return Err(GpuError(format!("output slice has {} floats, expected {n}", out.len())));
+            return Err(Error::InvalidInput(format!("output slice has {} floats, expected {n}", out.len())));
         }
         self.check_ready(cfg)?;
         let source = match cfg.model {
@@ -58,14 +58,14 @@ impl GpuRenderer {
         Ok(self.finish_frame(stats, uniforms))
     }
 
-    fn check_ready(&self, cfg: &RenderConfig) -> Result<(), GpuError> {
+    fn check_ready(&self, cfg: &RenderConfig) -> Result<(), Error> {
         if self.volume.is_none() {
-            return Err(GpuError("no volume loaded: call load_volume() first".into()));
+            return Err(Error::InvalidInput("no volume loaded: call load_volume() first".into()));
         }
         if self.tables.lut.is_none() {
-            return Err(GpuError("no transfer function set: call set_transfer_functions() first".into()));
+            return Err(Error::InvalidInput("no transfer function set: call set_transfer_functions() first".into()));
         }
-        cfg.validate().map_err(|e| GpuError(e.0))?;
+        cfg.validate()?;
         Ok(())
     }
 
@@ -77,9 +77,9 @@ impl GpuRenderer {
         FrameStats { uploaded_bytes: uploaded, ..stats }
     }
 
-    fn params(&self, camera: &Camera, light: &Light, cfg: &RenderConfig) -> Result<Params, GpuError> {
+    fn params(&self, camera: &Camera, light: &Light, cfg: &RenderConfig) -> Result<Params, Error> {
         let vol = self.volume.as_ref().expect("checked by check_ready");
-        let basis = camera.basis(self.width, self.height).map_err(|e| GpuError(e.0))?;
+        let basis = camera.basis(self.width, self.height)?;
         let inputs = FrameInputs {
             bounds: vol.bounds,
             dims: vol.dims,
@@ -95,7 +95,7 @@ impl GpuRenderer {
 
     /// The shader variant and the passes this frame needs, with the ray
     /// state and pre-integration table they use.
-    fn prepare(&mut self, camera: &Camera, light: &Light, cfg: &RenderConfig) -> Result<(Variant, PassPlan), GpuError> {
+    fn prepare(&mut self, camera: &Camera, light: &Light, cfg: &RenderConfig) -> Result<(Variant, PassPlan), Error> {
         let vol = self.volume.as_ref().expect("checked by check_ready");
         let shading = Shading::choose(light, vol.normals.is_some() || vol.normals_in_volume);
         // Texels holding normals are only read through the sampler.
@@ -109,7 +109,7 @@ impl GpuRenderer {
         if passes.per_pixel_state && self.frame.ray_state.pixels < pixels {
             let limit = self.ctx.max_storage_bytes();
             if pixels * 16 > limit {
-                return Err(GpuError(format!(
+                return Err(Error::DeviceLimit(format!(
                     "rays of up to {} steps are marched in passes, which need 16 bytes per pixel: \
                      {}x{} is over this device's limit of {limit} bytes; use fewer pixels or fewer steps",
                     passes.max_steps_needed, self.width, self.height
@@ -134,7 +134,7 @@ impl GpuRenderer {
     }
 
     /// Makes the bind group unless the current one still holds every resource.
-    fn bind(&mut self, hw_filter: bool) -> Result<(), GpuError> {
+    fn bind(&mut self, hw_filter: bool) -> Result<(), Error> {
         if self.bind_group.as_ref().is_some_and(|(_, f)| *f == hw_filter) {
             return Ok(());
         }
@@ -146,7 +146,7 @@ impl GpuRenderer {
             .occupancy
             .view
             .as_ref()
-            .ok_or_else(|| GpuError("the occupancy grid is missing: load the volume again".into()))?;
+            .ok_or_else(|| Error::Gpu("the occupancy grid is missing: load the volume again".into()))?;
         let view = wgpu::BindingResource::TextureView;
         let sampler = wgpu::BindingResource::Sampler;
         let f = &self.frame;
@@ -179,7 +179,7 @@ impl GpuRenderer {
 
     /// Submits the frame's passes; the last copies the image and statistics
     /// to their readback buffers.
-    fn dispatch(&self, variant: Variant, params: Params, plan: PassPlan) -> Result<(), GpuError> {
+    fn dispatch(&self, variant: Variant, params: Params, plan: PassPlan) -> Result<(), Error> {
         let pipeline = self.pipelines.get(&self.ctx, variant)?;
         let (bind_group, _) = self.bind_group.as_ref().expect("bound before dispatch");
         let f = &self.frame;
@@ -219,7 +219,7 @@ impl GpuRenderer {
     /// of the last frame's isosurface hits, row 0 at the bottom; infinity
     /// where a ray found no surface. `None` unless the last frame was an
     /// isosurface.
-    pub fn depth(&mut self) -> Result<Option<Vec<f32>>, GpuError> {
+    pub fn depth(&mut self) -> Result<Option<Vec<f32>>, Error> {
         if !self.depth_ready {
             return Ok(None);
         }
@@ -235,7 +235,7 @@ impl GpuRenderer {
         })
     }
 
-    pub fn render(&mut self, camera: &Camera, light: &Light, cfg: &RenderConfig) -> Result<(Vec<f32>, FrameStats), GpuError> {
+    pub fn render(&mut self, camera: &Camera, light: &Light, cfg: &RenderConfig) -> Result<(Vec<f32>, FrameStats), Error> {
         let mut out = vec![0.0f32; self.width as usize * self.height as usize * 4];
         let stats = self.render_into(camera, light, cfg, &mut out)?;
         Ok((out, stats))

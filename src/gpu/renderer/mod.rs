@@ -3,7 +3,8 @@
 //! their input changes: a camera, light or config change rewrites one
 //! 256-byte uniform block and nothing else.
 
-use super::context::{GpuContext, GpuError};
+use super::context::GpuContext;
+use crate::error::Error;
 use super::params::Params;
 use super::pipeline::{Pipelines, WORKGROUP};
 use super::resources::{readback_buffer, Fixed, OccSource, Occupancy, Output, RayState, Tables, VolumeGpu};
@@ -83,9 +84,9 @@ pub struct GpuRenderer {
 
 mod frame;
 
-static PIPELINES: OnceLock<Result<Arc<Pipelines>, GpuError>> = OnceLock::new();
+static PIPELINES: OnceLock<Result<Arc<Pipelines>, Error>> = OnceLock::new();
 
-fn shared_pipelines(ctx: &GpuContext) -> Result<Arc<Pipelines>, GpuError> {
+fn shared_pipelines(ctx: &GpuContext) -> Result<Arc<Pipelines>, Error> {
     PIPELINES.get_or_init(|| Pipelines::new(ctx).map(Arc::new)).clone()
 }
 
@@ -94,7 +95,7 @@ fn buffer(device: &wgpu::Device, label: &str, size: u64, usage: wgpu::BufferUsag
 }
 
 impl GpuRenderer {
-    pub fn new(width: u32, height: u32) -> Result<GpuRenderer, GpuError> {
+    pub fn new(width: u32, height: u32) -> Result<GpuRenderer, Error> {
         let ctx = GpuContext::get()?;
         let pipelines = shared_pipelines(&ctx)?;
         Self::check_size(&ctx, width, height)?;
@@ -159,14 +160,14 @@ impl GpuRenderer {
     }
 
     /// Checks an image size against the device's limits.
-    pub fn check_size(ctx: &GpuContext, width: u32, height: u32) -> Result<(), GpuError> {
+    pub fn check_size(ctx: &GpuContext, width: u32, height: u32) -> Result<(), Error> {
         if width == 0 || height == 0 {
-            return Err(GpuError(format!("width and height must be positive, got {width}x{height}")));
+            return Err(Error::InvalidInput(format!("width and height must be positive, got {width}x{height}")));
         }
-        let bytes = width as u64 * height as u64 * 16;
+        let bytes = (width as u64 * height as u64).saturating_mul(16);
         let limit = ctx.max_storage_bytes();
         if bytes > limit {
-            return Err(GpuError(format!(
+            return Err(Error::DeviceLimit(format!(
                 "image {width}x{height} needs {bytes} bytes of output, over this device's limit of {limit} \
                  bytes (at most {} pixels)",
                 limit / 16
@@ -174,14 +175,14 @@ impl GpuRenderer {
         }
         let groups = ctx.limits.max_compute_workgroups_per_dimension as u64 * WORKGROUP as u64;
         if width as u64 > groups || height as u64 > groups {
-            return Err(GpuError(format!(
+            return Err(Error::DeviceLimit(format!(
                 "image {width}x{height} exceeds this device's limit of {groups} pixels per side"
             )));
         }
         Ok(())
     }
 
-    pub fn resize(&mut self, width: u32, height: u32) -> Result<(), GpuError> {
+    pub fn resize(&mut self, width: u32, height: u32) -> Result<(), Error> {
         Self::check_size(&self.ctx, width, height)?;
         if (width, height) == (self.width, self.height) {
             return Ok(());
@@ -195,12 +196,12 @@ impl GpuRenderer {
 
     /// Uploads a volume (and its normals), replacing the previous one, with
     /// float data stored exactly.
-    pub fn set_volume(&mut self, vol: &VolumeView) -> Result<(), GpuError> {
+    pub fn set_volume(&mut self, vol: &VolumeView) -> Result<(), Error> {
         self.set_volume_with_precision(vol, Precision::Float32)
     }
 
     /// Uploads a volume, storing float data at `precision`.
-    pub fn set_volume_with_precision(&mut self, vol: &VolumeView, precision: Precision) -> Result<(), GpuError> {
+    pub fn set_volume_with_precision(&mut self, vol: &VolumeView, precision: Precision) -> Result<(), Error> {
         let volume = VolumeGpu::upload(&self.ctx, vol, precision)?;
         let total = volume.bytes;
         self.volume = Some(volume);
@@ -215,7 +216,7 @@ impl GpuRenderer {
     }
 
     /// Uploads an RGBA lookup table (entries at scalars `m / (M - 1)`).
-    pub fn set_lut(&mut self, lut: &[[f32; 4]]) -> Result<(), GpuError> {
+    pub fn set_lut(&mut self, lut: &[[f32; 4]]) -> Result<(), Error> {
         let bytes = self.tables.upload_lut(&self.ctx, lut)?;
         self.bind_group = None;
         if self.volume.is_some() {
@@ -228,7 +229,7 @@ impl GpuRenderer {
 
     /// Maps sampled values to the table's [0, 1] (a value range in data
     /// units). Recomputes which cells are empty when it changes.
-    pub fn set_value_map(&mut self, map: ValueMap) -> Result<(), GpuError> {
+    pub fn set_value_map(&mut self, map: ValueMap) -> Result<(), Error> {
         if map != self.value_map {
             self.value_map = map;
             self.occupancy.source = None;
@@ -247,7 +248,7 @@ impl GpuRenderer {
 
     /// Which occupancy cells the current table can make visible (or, for
     /// the isosurface, can reach the iso value).
-    fn update_occupancy(&mut self, source: OccSource) -> Result<(), GpuError> {
+    fn update_occupancy(&mut self, source: OccSource) -> Result<(), Error> {
         let Some(vol) = self.volume.as_ref() else {
             return Ok(());
         };
