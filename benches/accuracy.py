@@ -178,7 +178,7 @@ def run_scene(scene, frames, use_reference):
         finally:
             ref.release()
 
-    return res, r._lut
+    return res, r.lut
 
 
 def run_vtk(scene, lut, res, frames):

@@ -144,7 +144,7 @@ def peers(args, camera, ctf, ours):
         rows[name] = [float(np.median(times))]
         r = VolumeRenderer(8, 8)
         r.set_transfer_functions(ctf, otf)
-        luts[name] = r._lut
+        luts[name] = r.lut
     try:
         from peers import VtkPeer
     except ImportError:

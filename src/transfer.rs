@@ -1,66 +1,9 @@
-//! Transfer functions as data: control points to lookup tables, built-in
-//! colormaps, and evaluation of a table at a sample value.
+//! Transfer functions as data: built-in colormaps, and evaluation of a
+//! lookup table at a sample value (tables are built from control points in
+//! Python, with numpy.interp).
 
 #[path = "colormaps_data.rs"]
 mod colormaps_data;
-
-/// numpy's `np.interp(x, xp, fp)` for increasing (possibly repeated) `xp`:
-/// clamped to the end values outside, and at a repeated abscissa the later
-/// point wins (pyvr's `peaks` relies on that).
-pub fn interp(x: f64, xp: &[f64], fp: &[f64]) -> f64 {
-    debug_assert_eq!(xp.len(), fp.len());
-    let n = xp.len();
-    if n == 0 {
-        return f64::NAN;
-    }
-    if x.is_nan() {
-        return f64::NAN;
-    }
-    if x < xp[0] {
-        return fp[0];
-    }
-    if x >= xp[n - 1] {
-        return fp[n - 1];
-    }
-    // Last j with xp[j] <= x; x < xp[n-1] guarantees j + 1 < n and xp[j+1] > x.
-    let j = xp.partition_point(|&v| v <= x) - 1;
-    let (x0, x1) = (xp[j], xp[j + 1]);
-    if x == x0 {
-        return fp[j];
-    }
-    let w = (x - x0) / (x1 - x0);
-    fp[j] + w * (fp[j + 1] - fp[j])
-}
-
-/// `np.linspace(0, 1, n)[i]`, with the end exactly 1 as numpy makes it.
-pub fn linspace01(i: usize, n: usize) -> f64 {
-    if n <= 1 {
-        return 0.0;
-    }
-    if i == n - 1 {
-        return 1.0;
-    }
-    i as f64 * (1.0 / (n - 1) as f64)
-}
-
-/// Samples piecewise-linear channels at `linspace(0, 1, size)`.
-/// `values` holds `channels` numbers per control point, point-major.
-/// Returns `size * channels` f32 values, entry-major (pyvr's `to_lut`).
-pub fn lut_from_points(scalars: &[f64], values: &[f64], channels: usize, size: usize) -> Vec<f32> {
-    let n = scalars.len();
-    assert_eq!(values.len(), n * channels, "values must hold channels per point");
-    let columns: Vec<Vec<f64>> = (0..channels)
-        .map(|c| (0..n).map(|i| values[i * channels + c]).collect())
-        .collect();
-    let mut out = Vec::with_capacity(size * channels);
-    for i in 0..size {
-        let x = linspace01(i, size);
-        for col in &columns {
-            out.push(interp(x, scalars, col) as f32);
-        }
-    }
-    out
-}
 
 /// Evaluates an RGBA lookup table (entries at `m / (M - 1)`) at `v`, with
 /// linear interpolation between entries and clamping outside [0, 1]. This is
@@ -141,29 +84,6 @@ pub fn colormap(name: &str) -> Option<Vec<[f64; 3]>> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn interp_matches_numpy_rules() {
-        let xp = [0.0, 0.5, 1.0];
-        let fp = [0.0, 1.0, 0.0];
-        assert_eq!(interp(-1.0, &xp, &fp), 0.0);
-        assert_eq!(interp(0.25, &xp, &fp), 0.5);
-        assert_eq!(interp(0.5, &xp, &fp), 1.0);
-        assert_eq!(interp(2.0, &xp, &fp), 0.0);
-        // Repeated abscissa: the later value wins at the repeat.
-        let xp = [0.0, 0.0, 0.02, 1.0];
-        let fp = [0.0, 1.0, 0.0, 0.0];
-        assert_eq!(interp(0.0, &xp, &fp), 1.0);
-        assert!((interp(0.01, &xp, &fp) - 0.5).abs() < 1e-12);
-    }
-
-    #[test]
-    fn lut_endpoints_and_midpoint() {
-        let lut = lut_from_points(&[0.0, 1.0], &[0.0, 1.0], 1, 5);
-        assert_eq!(lut, vec![0.0, 0.25, 0.5, 0.75, 1.0]);
-        let rgb = lut_from_points(&[0.0, 1.0], &[0.0, 0.0, 0.0, 1.0, 0.5, 0.25], 3, 3);
-        assert_eq!(&rgb[3..6], &[0.5, 0.25, 0.125]);
-    }
 
     #[test]
     fn eval_lut_is_exact_at_nodes_and_linear_between() {

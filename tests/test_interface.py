@@ -166,7 +166,7 @@ def test_opacity_editor_add_drag_remove(ui):
     mouse(ui, "motion_notify_event", ax, gx, gy)
     mouse(ui, "button_release_event", ax, gx, gy)
     assert ui.state.control_points[1] == pytest.approx((0.3, 0.95), abs=0.01)
-    lut = ui.renderer._lut[:, 3]
+    lut = ui.renderer.lut[:, 3]
     assert lut[int(0.3 * 255)] == pytest.approx(0.95, abs=0.02)  # the renderer got the new function
     after = shown(ui)
     assert (after[..., 3].astype(int) - before[..., 3].astype(int)).mean() > 10  # more opaque

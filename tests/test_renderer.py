@@ -247,10 +247,6 @@ def test_core_rejects_bad_arguments_with_python_errors():
         r.render((1, 2), light, args[2])
     img, stats = r.render(*args)
     assert img.shape == (4, 4, 4) and stats["truncated_needed"] == 0
-    with pytest.raises(ValueError, match="sorted"):
-        _core.lut_from_points(np.array([0.5, 0.1]), np.zeros((2, 1)), 4)
-    with pytest.raises(ValueError, match="at least 1"):
-        _core.lut_from_points(np.array([0.0, 1.0]), np.zeros((2, 1)), 0)
     with pytest.raises(ValueError, match=r"shape \(H, W, 4\)"):
         _core.quantize(np.zeros((2, 2, 3), np.float32))
     assert _core.colormap_table("nope") is None

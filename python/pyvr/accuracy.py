@@ -49,7 +49,7 @@ def _exact(config: RenderConfig, step: float, longest: float) -> RenderConfig:
 
 
 def longest_chord(renderer) -> float:
-    lo, hi = (np.asarray(b, np.float64) for b in renderer._bounds)
+    lo, hi = (np.asarray(b, np.float64) for b in renderer.bounds)
     return float(np.linalg.norm(hi - lo))
 
 
@@ -72,7 +72,7 @@ def converged_image(renderer, tolerance: float = 0.1, step: Optional[float] = No
     resolves everything the two steps share their pieces and the estimate
     reads 0: the bound is then the splitting tolerance, not Richardson's.
     """
-    lo, hi = (np.asarray(b, np.float64) for b in renderer._bounds)
+    lo, hi = (np.asarray(b, np.float64) for b in renderer.bounds)
     spacing = float(((hi - lo) / np.array(renderer.volume.data.shape[:3])).min())
     cfg = renderer.config
     h = step or min(spacing / 4, cfg.reference_step_size / 4)
@@ -141,7 +141,7 @@ def scene_features(renderer) -> Dict[str, float]:
     raw = np.asarray(renderer.volume.data)
     scale = {np.dtype(np.uint8): 1 / 255.0, np.dtype(np.uint16): 1 / 65535.0}.get(raw.dtype, 1.0)
     data = np.nan_to_num(raw.astype(np.float32) * np.float32(scale), nan=0.0, posinf=1.0, neginf=0.0)
-    lo, hi = (np.asarray(b, np.float64) for b in renderer._bounds)
+    lo, hi = (np.asarray(b, np.float64) for b in renderer.bounds)
     spacing = (hi - lo) / np.array(data.shape)
     # One axis at a time in float32: a 256^3 volume needs two extra copies, not six.
     sq = np.zeros(data.shape, np.float32)
@@ -149,7 +149,7 @@ def scene_features(renderer) -> Dict[str, float]:
         if data.shape[axis] > 1:
             sq += np.gradient(data, h, axis=axis).astype(np.float32) ** 2
     g = float(np.sqrt(sq.max()))
-    lut = np.asarray(renderer._lut, np.float64)
+    lut = np.asarray(renderer.lut, np.float64)
     m = len(lut)
     emitted = lut[:, :3] * lut[:, 3:4]
     dv = 1.0 / max(m - 1, 1)

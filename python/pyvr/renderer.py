@@ -282,6 +282,18 @@ class VolumeRenderer:
         self._update_value_map()
 
     @property
+    def bounds(self) -> Optional[tuple]:
+        """The loaded volume's box, ((x, y, z) min, (x, y, z) max), as it was
+        uploaded; None before load_volume."""
+        return getattr(self, "_bounds", None)
+
+    @property
+    def lut(self) -> Optional[np.ndarray]:
+        """A copy of the (n, 4) RGBA table the transfer functions were
+        tabulated to (entries at m / (n - 1)); None before they are set."""
+        return None if getattr(self, "_lut", None) is None else self._lut.copy()
+
+    @property
     def value_range(self) -> Optional[tuple]:
         """The (low, high) data values the transfer functions span now, or
         None for pyvr's rule (see set_transfer_functions)."""

@@ -35,7 +35,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<renderer::PyRenderer>()?;
     m.add_function(wrap_pyfunction!(renderer::quantize, m)?)?;
     m.add_function(wrap_pyfunction!(renderer::integrate_reference, m)?)?;
-    m.add_function(wrap_pyfunction!(transfer::lut_from_points, m)?)?;
     m.add_function(wrap_pyfunction!(transfer::colormap_table, m)?)?;
     m.add_function(wrap_pyfunction!(transfer::colormap_names, m)?)?;
     m.add_function(wrap_pyfunction!(device_info, m)?)?;

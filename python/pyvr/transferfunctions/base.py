@@ -5,7 +5,6 @@ from typing import List, Optional, Tuple
 
 import numpy as np
 
-from .._core import lut_from_points
 from .._numbers import is_number
 
 
@@ -79,8 +78,9 @@ class BaseTransferFunction(ABC):
         n = size or self.lut_size
         scalars = np.ascontiguousarray(self._get_scalar_values(), dtype=np.float64)
         values = np.asarray(self._get_mapped_values(), dtype=np.float64)
-        values = np.ascontiguousarray(values.reshape(len(scalars), -1))
-        return lut_from_points(scalars, values, int(n))
+        values = values.reshape(len(scalars), -1)
+        x = np.linspace(0.0, 1.0, int(n))
+        return np.stack([np.interp(x, scalars, values[:, c]) for c in range(values.shape[1])], axis=-1).astype(np.float32)
 
     def _apply(self, scalar_array) -> np.ndarray:
         x = np.asarray(scalar_array, dtype=np.float64)
