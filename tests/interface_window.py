@@ -11,7 +11,6 @@ import matplotlib
 matplotlib.use("TkAgg")
 
 import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
 from matplotlib.backend_bases import MouseEvent  # noqa: E402
 
 from pyvr.datasets import compute_normal_volume, create_sample_volume  # noqa: E402

@@ -1,4 +1,4 @@
-"""Error metrics, the converged image and error-targeted configs (issue 3).
+"""Error metrics, the converged image and error-targeted configs.
 
 The converged image is checked against Beer–Lambert's closed form; the
 error-targeted config is checked the way the benchmark checks it: render

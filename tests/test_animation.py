@@ -6,7 +6,6 @@ import io
 import numpy as np
 import pytest
 
-import pyvr
 from pyvr import RenderConfig, VolumeRenderer, save_animation
 from pyvr.camera import Camera, CameraPath
 from pyvr.datasets import compute_normal_volume, create_sample_volume

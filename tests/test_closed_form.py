@@ -3,7 +3,7 @@
 Every pixel's ray crosses the box along a chord of length L that numpy
 computes exactly; Beer–Lambert gives alpha = 1 - exp(-a L / ref) and straight
 colour = c * I. This is the opacity-correction design's promise: the same
-TF looks the same at every preset's step size. Tolerance 1/255 (issue 2);
+TF looks the same at every preset's step size. Tolerance 1/255 (the cross-validation bound);
 the f64 integrator is held to 1e-6.
 """
 

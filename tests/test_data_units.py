@@ -11,6 +11,8 @@ import numpy as np
 import pytest
 
 import pyvr
+import scenes
+from scenes import make_renderer
 from conftest import SHARED_DATA, levels
 from pyvr import RenderConfig, VolumeRenderer
 from pyvr.camera import Camera
@@ -23,17 +25,11 @@ W, H = 48, 40
 
 
 def blob(shape=(20, 16, 12)):
-    idx = np.meshgrid(*(np.linspace(-1, 1, n) for n in shape), indexing="ij")
-    return np.exp(-3 * sum(c * c for c in idx)).astype(np.float32)
+    return scenes.blob(shape, scale=3.0)
 
 
 def renderer(vol, otf=None, value_range=None, light=None):
-    r = VolumeRenderer(W, H, config=RenderConfig.balanced(), light=light or Light.default())
-    r.load_volume(vol)
-    r.set_camera(Camera.isometric_view(distance=3.0))
-    r.set_transfer_functions(ColorTransferFunction.from_colormap("viridis"),
-                             otf or OpacityTransferFunction.linear(0.0, 0.4), value_range=value_range)
-    return r
+    return make_renderer(vol, size=(W, H), otf=otf, value_range=value_range, light=light)
 
 
 def test_value_range_maps_data_units_on_the_gpu():

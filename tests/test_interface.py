@@ -10,12 +10,10 @@ import numpy as np
 import pytest
 from matplotlib.backend_bases import KeyEvent, MouseEvent
 
-from pyvr.camera import Camera
 from pyvr.datasets import compute_normal_volume, create_sample_volume
 from pyvr.interface import ColorSelector, ImageDisplay, InteractiveVolumeRenderer, InterfaceState, OpacityEditor
 from pyvr.interface import cache, matplotlib_interface, state, widgets
 from pyvr.interface.widgets import FPSCounter, PresetSelector
-from pyvr.lighting import Light
 from pyvr.volume import Volume
 
 SIZE = 64

@@ -1,10 +1,10 @@
-"""The optical-model ladder (issue 5): every model against its closed form
+"""The optical-model ladder: every model against its closed form
 on homogeneous media, against numpy on sampled values, against the f64
 integrator, and against the independent moderngl/GLSL reference.
 
-Tolerances: closed forms and numpy within 1/255 (the issue's bound);
+Tolerances: closed forms and numpy within 1/255 (one 8-bit level);
 GPU vs f64 within 1.5 levels max (f32 arithmetic over hundreds of steps);
-GPU vs GLSL reference with issue 2's criteria (mean < 0.5 level, 99.9th
+GPU vs GLSL reference with the cross-validation criteria (mean < 0.5 level, 99.9th
 percentile < 3 levels), since both sample the same points in f32.
 """
 
@@ -14,8 +14,9 @@ import numpy as np
 import pytest
 from scipy.ndimage import map_coordinates
 
+from scenes import make_renderer
 from conftest import levels
-from pyvr import RenderConfig, VolumeRenderer
+from pyvr import RenderConfig
 from pyvr.camera import Camera
 from pyvr.datasets import compute_normal_volume, create_sample_volume
 from pyvr.lighting import Light
@@ -32,11 +33,7 @@ COLOR = np.array([0.9, 0.5, 0.2])
 
 
 def renderer(vol, ctf, otf, cam, light, cfg, w=W, h=H):
-    r = VolumeRenderer(w, h, config=cfg, light=light)
-    r.load_volume(vol)
-    r.set_camera(cam)
-    r.set_transfer_functions(ctf, otf)
-    return r
+    return make_renderer(vol, size=(w, h), config=cfg, light=light, camera=cam, ctf=ctf, otf=otf)
 
 
 def cube(preset, **fields):

@@ -5,7 +5,8 @@ the device reads exactly the float16-rounded values, in 2 bytes per voxel or
 import numpy as np
 import pytest
 
-from pyvr import RenderConfig, VolumeRenderer
+from scenes import make_renderer
+from pyvr import VolumeRenderer
 from pyvr.camera import Camera
 from pyvr.datasets import compute_normal_volume, create_sample_volume
 from pyvr.lighting import Light
@@ -16,13 +17,8 @@ LEVEL = 1 / 255
 
 
 def renderer(vol, precision="float32", light=None, otf=None, skip=True, size=(48, 40)):
-    r = VolumeRenderer(*size, config=RenderConfig.balanced(), light=light or Light.default())
-    r.empty_space_skipping = skip
-    r.load_volume(vol, precision=precision)
-    r.set_camera(Camera.isometric_view(distance=2.6))
-    r.set_transfer_functions(ColorTransferFunction.from_colormap("plasma"),
-                             otf or OpacityTransferFunction.linear(0.0, 0.4))
-    return r
+    return make_renderer(vol, size=size, precision=precision, light=light, otf=otf, skip=skip,
+                         camera=Camera.isometric_view(distance=2.6), ctf=ColorTransferFunction.from_colormap("plasma"))
 
 
 def image(r):

@@ -8,6 +8,7 @@ import warnings
 
 import numpy as np
 import pytest
+from scenes import frame, make_renderer
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -55,13 +56,8 @@ def cameras(draw, distance=(0.2, 5.0)):
 
 
 def render(vol, ctf, otf, cam, light, cfg, **kw):
-    r = VolumeRenderer(W, H, config=cfg, light=light)
-    r.load_volume(vol)
-    r.set_camera(cam)
-    r.set_transfer_functions(ctf, otf)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        return r, r.render(dtype=np.float32, premultiplied=True, **kw)
+    r = make_renderer(vol, size=(W, H), config=cfg, light=light, camera=cam, ctf=ctf, otf=otf)
+    return r, frame(r, **kw)
 
 
 @settings(**SETTINGS)

@@ -5,7 +5,8 @@ the samples taken per ray fall with the empty fraction."""
 import numpy as np
 import pytest
 
-from pyvr import RenderConfig, VolumeRenderer
+from scenes import make_renderer
+from pyvr import RenderConfig
 from pyvr.camera import Camera
 from pyvr.datasets import compute_normal_volume, create_sample_volume
 from pyvr.lighting import Light
@@ -16,11 +17,8 @@ from pyvr.volume import Volume
 def both(volume, otf, light=None, config=None, camera=None):
     out = []
     for skip in (False, True):
-        r = VolumeRenderer(48, 40, config=config or RenderConfig.balanced(), light=light or Light.default())
-        r.empty_space_skipping = skip
-        r.load_volume(volume)
-        r.set_camera(camera or Camera.isometric_view(distance=2.5))
-        r.set_transfer_functions(ColorTransferFunction.from_colormap("plasma"), otf)
+        r = make_renderer(volume, config=config, light=light, camera=camera or Camera.isometric_view(distance=2.5),
+                          ctf=ColorTransferFunction.from_colormap("plasma"), otf=otf, skip=skip)
         out.append((r.render(dtype=np.float32, premultiplied=True), r.last_frame_stats["samples"], r))
     return out
 
