@@ -1,4 +1,5 @@
-//! Prints the adapter, its features of interest and its limits.
+//! Prints the adapter, its features of interest and its limits:
+//! `cargo bench --bench device_probe`.
 fn main() {
     match pyvr_core::gpu::GpuContext::get() {
         Ok(ctx) => {

@@ -1,5 +1,5 @@
 //! Times frames of a synthetic scene from Rust alone (no Python), for
-//! profiling the shader: `cargo run --release --example frame_bench [size] [n]`.
+//! profiling the shader: `cargo bench --bench frame_bench -- [size] [n]`.
 
 use glam::DVec3;
 use pyvr_core::config::RenderConfig;
@@ -9,9 +9,10 @@ use pyvr_core::volume::{VolumeView, Voxels};
 use std::time::Instant;
 
 fn main() {
-    let args: Vec<String> = std::env::args().collect();
-    let size: u32 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(256);
-    let n: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(128);
+    // `cargo bench` adds `--bench`; only the numbers are ours.
+    let args: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with("--")).collect();
+    let size: u32 = args.first().and_then(|s| s.parse().ok()).unwrap_or(256);
+    let n: usize = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(128);
     let mut data = Vec::with_capacity(n * n * n);
     for i in 0..n {
         for j in 0..n {
