@@ -203,7 +203,7 @@ class VolumeRenderer:
           faster. Values must be finite and within +-65504. The rounding is
           the same in every voxel of a smooth region, so along long dense
           rays it can add up: measured up to 2.1 levels against the exact
-          data's image (README, "Limits and numerics").
+          data's image (docs/numerics.md).
 
         ``counters()["volume_storage"]`` names the stored format.
         """
