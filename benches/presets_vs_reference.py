@@ -20,11 +20,13 @@ import warnings
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
 sys.path.insert(0, os.path.join(HERE, "..", "tests"))
 sys.path.insert(0, os.path.join(HERE, "..", "examples"))
 os.environ.setdefault("PYVR_BACKEND", "vulkan")  # keep wgpu off the EGL context
 
 from benchmark import PRESETS, benchmark_scene  # noqa: E402
+from _report import write_table  # noqa: E402
 from pyvr import RenderConfig, VolumeRenderer  # noqa: E402
 from pyvr.lighting import Light  # noqa: E402
 from reference.moderngl_reference import ReferenceRenderer, _context  # noqa: E402
@@ -70,6 +72,12 @@ def main():
     print(f"{'preset':14s} {'ours ms':>9s} {'moderngl ms':>12s} {'speed-up':>9s} {'mean diff':>10s} {'p99.9':>6s} {'max':>5s}")
     for name, a, b, mean, p, mx in lines:
         print(f"{name:14s} {a:9.1f} {b:12.1f} {b / a:8.2f}x {mean:10.4f} {p:6.2f} {mx:5.0f}")
+    write_table("presets", f"benches/presets_vs_reference.py --frames {args.frames}",
+                ["preset", "pyvr (wgpu) ms", "moderngl reference ms", "speed-up", "difference, 8-bit levels: mean / max"],
+                [[n, round(a), round(b), f"{b / a:.1f}x", f"{mean:.4f} / {mx:.0f}"] for n, a, b, mean, p, mx in lines],
+                device=r.device, note=f"{args.volume}^3 double_sphere with normals, {args.size}x{args.size}; median of "
+                f"{args.frames} frames after a warm-up, uploads excluded; reference: moderngl on "
+                f"{_context().info['GL_RENDERER']}.")
 
 
 if __name__ == "__main__":

@@ -1,0 +1,36 @@
+"""Benchmark results as tables: each benchmark writes its tables as JSON
+(out/<name>.json) stamped with date, machine, device and commit, and
+tools/docs_tables.py puts them into the docs pages. Nothing in a docs
+table is typed by hand."""
+
+import datetime
+import json
+import os
+import platform
+import subprocess
+
+OUT = os.environ.get("PYVR_OUT", os.path.join(os.path.dirname(__file__), "..", "out"))
+
+
+def stamp(device: str = "") -> dict:
+    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
+                            cwd=os.path.dirname(os.path.abspath(__file__))).stdout.strip()
+    dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], capture_output=True, text=True,
+                           cwd=os.path.dirname(os.path.abspath(__file__))).stdout.strip()
+    return {
+        "date": datetime.date.today().isoformat(),
+        "machine": f"{platform.node()} ({os.cpu_count()} cores, {platform.machine()})",
+        "device": device,
+        "commit": commit + ("+changes" if dirty else ""),
+    }
+
+
+def write_table(name: str, command: str, columns: list, rows: list, device: str = "", note: str = "") -> str:
+    """Writes out/<name>.json: the table and how it was made."""
+    os.makedirs(OUT, exist_ok=True)
+    path = os.path.normpath(os.path.join(OUT, f"{name}.json"))
+    table = {"name": name, "command": command, "columns": columns, "rows": rows, "note": note, **stamp(device)}
+    with open(path, "w") as f:
+        json.dump(table, f, indent=1)
+    print(f"table {name}: {path}")
+    return path
