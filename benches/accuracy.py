@@ -44,6 +44,7 @@ os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 from _common import out_path  # noqa: E402
 from peers import VtkPeer  # noqa: E402
 
+from _report import write_table  # noqa: E402
 from pyvr import RenderConfig, VolumeRenderer, accuracy  # noqa: E402
 from pyvr.camera import Camera  # noqa: E402
 from pyvr.datasets import compute_normal_volume, create_sample_volume, load_vti, shepp_logan_3d  # noqa: E402
@@ -223,6 +224,60 @@ def report(res):
               f"{p['frac_over_1'] * 100:6.2f}% {vs}")
 
 
+def short(p):
+    """A point's config and time: 'step 0.08, 258'."""
+    return f"{p['label']}, {p['ms']:.0f}"
+
+
+def write_tables(results, command, device):
+    """The tables docs/speed.md shows, from this run's results."""
+    presets, f16, targets, peers = [], [], [], []
+    for res in results:
+        pts = [p for p in res["points"] if p["kind"] != "probe"]
+        ref = {p["label"]: p for p in pts if p["engine"] == "moderngl"}
+        for p in pts:
+            if p["engine"] == "pyvr" and p["kind"] == "preset":
+                r = ref.get(p["label"])
+                best = cheapest_at(pts, r["max"]) if r else None
+                presets.append([res["scene"], p["label"], f"{p['ms']:.0f}", f"{p['max']:.1f}",
+                                f"{r['ms']:.0f}" if r else "", f"{short(best)}, {r['ms'] / best['ms']:.1f}x" if best else ""])
+            if "target" in p:
+                targets.append([res["scene"], f"{p['target']:g}", f"{p['step']:.4g}", f"{p['ms']:.0f}", f"{p['max']:.2f}",
+                                f"{p['cost_vs_cheapest']:.2f}-{p['cost_vs_cheapest_bound']:.2f}x", f"{p['choose_s']:.1f} s"])
+            if p["engine"].startswith("vtk"):
+                best = cheapest_at(pts, p["max"])
+                peers.append([res["scene"], p["engine"], f"{p['step']:g}", f"{p['ms']:.0f}", f"{p['max']:.0f}",
+                              f"{short(best)}, {p['ms'] / best['ms']:.1f}x" if best else ""])
+        if any(p["engine"] == "pyvr-f16" for p in pts):
+            for label, r in ref.items():
+                row = [res["scene"], label, f"{r['ms']:.0f}", f"{r['max']:.1f}"]
+                for engine in ("pyvr", "pyvr-f16"):
+                    ok = [p for p in pts if p["engine"] == engine and p["max"] <= r["max"]]
+                    best = min(ok, key=lambda p: p["ms"]) if ok else None
+                    row.append(f"{short(best)}, {r['ms'] / best['ms']:.1f}x" if best else "")
+                f16.append(row)
+    errors = ("Errors: max of premultiplied RGBA in 8-bit levels against the float64 integrator's converged "
+              "image (VTK: against its own finest image).")
+    write_table("accuracy_presets", command,
+                ["scene", "preset", "pyvr ms", "max err", "moderngl ms", "pyvr at <= its error: config, ms, speed-up"],
+                presets, device=device, note=errors + " Per preset ours and the moderngl reference render the same "
+                "rule; the last column is our cheapest configuration (preset, sweep step or error target) with equal "
+                "or lower error, and how much faster it is than the reference's preset.")
+    if f16:
+        write_table("accuracy_float16", command,
+                    ["scene", "reference preset", "moderngl ms", "max err", "pyvr float32 at <= its error",
+                     "pyvr float16 at <= its error"], f16, device=device, note=errors)
+    write_table("accuracy_targets", command,
+                ["scene", "target (levels)", "step", "ms", "measured max", "cost vs cheapest step meeting it",
+                 "chosen in"], targets, device=device,
+                note="config_for_error: the chosen step against the largest step, probed at sqrt(2)x and 2x, that "
+                "still meets the target.")
+    if peers:
+        write_table("accuracy_vtk", command,
+                    ["scene", "peer", "sample distance", "ms", "max err vs own finest", "pyvr at <= that error: "
+                     "config, ms, peer / pyvr"], peers, device=device, note=errors)
+
+
 def plot(results, path):
     import matplotlib
 
@@ -284,6 +339,11 @@ def main():
         results.append(res)
     with open(args.json, "w") as f:
         json.dump(results, f, indent=1)
+    flags = " ".join(f for f, on in (("--quick", args.quick), ("--no-vtk", not use_vtk),
+                                     ("--no-reference", args.no_reference)) if on)
+    if not args.only:
+        write_tables(results, f"benches/accuracy.py --frames {args.frames} {flags}".strip(),
+                     VolumeRenderer(8, 8).device)
     plot(results, args.plot)
     print(f"\njson: {os.path.normpath(args.json)}\nplot: {os.path.normpath(args.plot)}\n"
           f"total {time.perf_counter() - t0:.0f} s")

@@ -22,6 +22,8 @@ sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "examples"))
 
 from _common import out_path, save_grid  # noqa: E402
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from _report import write_table  # noqa: E402
 from pyvr import RenderConfig, VolumeRenderer  # noqa: E402
 from pyvr.camera import Camera  # noqa: E402
 from pyvr.datasets import compute_normal_volume, create_sample_volume, load_vti  # noqa: E402
@@ -87,12 +89,18 @@ def run(volume, size, frames, keep_images=False):
     return rows, images
 
 
-def table(title, rows):
+def table(title, rows, name, args):
     print(f"\n{title}")
     base = rows[0][1]
     print(f"{'model':<22} {'ms/frame':>9} {'vs EA':>6} {'samples/px':>11} {'passes':>6}")
     for label, ms, spp, passes in rows:
         print(f"{label:<22} {ms:9.1f} {ms / base:6.2f} {spp:11.1f} {passes:6d}")
+    write_table(name, f"benches/models.py --frames {args.frames}",
+                ["model", "ms per frame", "vs emission_absorption", "samples per pixel", "passes"],
+                [[label, f"{ms:.1f}", f"{ms / base:.2f}", f"{spp:.1f}", passes] for label, ms, spp, passes in rows],
+                device=VolumeRenderer(8, 8).device,
+                note=f"{title}, {args.size}x{args.size}, balanced, isometric camera at distance 3; median of "
+                f"{args.frames} frames after a warm-up.")
 
 
 def main():
@@ -107,7 +115,7 @@ def main():
         fuel = load_vti(FUEL).data / np.float32(255.0)
         vol = Volume(fuel.astype(np.float32), None, *BOX)
         rows, images = run(vol, args.size, args.frames, keep_images=True)
-        table("fuel.vti (64^3 float32)", rows)
+        table("fuel.vti (64^3 float32)", rows, "models_fuel", args)
         labels = [r[0] for r in rows[:8]]
         labels[1] = "absorption (over white)"
         labels[5] = "minip (0 on every ray)"
@@ -119,7 +127,7 @@ def main():
         ds = create_sample_volume(256, "double_sphere")
         vol = Volume(ds, compute_normal_volume(ds), *BOX)
         rows, _ = run(vol, args.size, args.frames)
-        table("benchmark scene (256^3 double_sphere with normals)", rows)
+        table("benchmark scene (256^3 double_sphere with normals)", rows, "models_benchmark", args)
 
 
 if __name__ == "__main__":

@@ -24,6 +24,7 @@ sys.path.insert(0, os.path.dirname(__file__))
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "tests"))
 os.environ.setdefault("PYVR_BACKEND", "vulkan")  # keep wgpu off the EGL contexts of the peers
 
+from _report import write_table  # noqa: E402
 from pyvr import RenderConfig, VolumeRenderer
 from pyvr.camera import Camera
 from pyvr.datasets import compute_normal_volume, create_sample_volume
@@ -71,6 +72,7 @@ def main():
     print(f"{'scene':38s} {'skip':>5s} {'ms':>8s} {'samples/px':>11s} {'empty cells':>12s}")
     dense_ms = None
     ours = {}
+    table = {}
     for name, (data, otf) in scenes(args.volume).items():
         for skip in (False, True):
             r = VolumeRenderer(args.size, args.size, config=RenderConfig.balanced(), light=Light.default())
@@ -85,10 +87,19 @@ def main():
                 ours[name] = ms
             print(f"{name:38s} {str(skip):>5s} {ms:8.1f} {r.last_frame_stats['samples'] / px:11.1f} "
                   f"{r.empty_fraction():12.2f}")
+            table.setdefault(name, []).append((ms, r.last_frame_stats["samples"] / px, r.empty_fraction()))
+    command = f"benches/scene_content.py --frames {args.frames}"
+    setting = f"{args.volume}^3 volumes in [-1, 1]^3, {args.size}x{args.size}, balanced, gradient shading"
+    write_table("scene_content", command,
+                ["scene", "skipping off / on: ms", "samples per pixel", "empty 8^3 cells"],
+                [[n, f"{off[0]:.1f} / {on[0]:.1f}", f"{off[1]:.1f} / {on[1]:.1f}", f"{on[2]:.0%}"]
+                 for n, (off, on) in table.items()],
+                device=r.device, note=setting + f"; median of {args.frames} frames after a warm-up.")
     if not args.no_peers:
         peers(args, camera, ctf, ours)
 
     print("\nmemory per voxel on the GPU (volume texture, plus normals when given):")
+    memory = []
     base = create_sample_volume(64, "sphere")
     for label, data, normals in [
         ("uint8", (base * 255).astype(np.uint8), None),
@@ -100,6 +111,12 @@ def main():
         r = VolumeRenderer(8, 8)
         r.load_volume(Volume(data, normals))
         print(f"  {label:30s} {r.counters()['volume_bytes'] / base.size:5.1f} bytes/voxel")
+        memory.append([label, r.counters()["volume_storage"], f"{r.counters()['volume_bytes'] / base.size:.1f}"])
+    for label, normals in (("float16", None), ("float16 + normals", compute_normal_volume(base))):
+        r = VolumeRenderer(8, 8)
+        r.load_volume(Volume(base, normals), precision="float16")
+        memory.append([label, r.counters()["volume_storage"], f"{r.counters()['volume_bytes'] / base.size:.1f}"])
+    write_table("memory", command, ["stored as", "device format", "bytes per voxel"], memory, device=r.device)
 
     data = create_sample_volume(args.volume, "double_sphere")
     r = VolumeRenderer(args.size, args.size, config=RenderConfig.balanced(), light=Light.default())
@@ -118,8 +135,14 @@ def main():
         cam_ms = (time.perf_counter() - t) * 1e3
     print(f"\nfirst render (upload + frame): {first_ms:.0f} ms, {first_up / 1e6:.1f} MB uploaded")
     print(f"camera-only re-render:         {cam_ms:.0f} ms, {r.last_frame_stats['uploaded_bytes']} bytes uploaded")
+    rerender = [["first render (upload + frame)", f"{first_ms:.0f}", f"{first_up:,}"],
+                ["camera-only re-render", f"{cam_ms:.0f}", f"{r.last_frame_stats['uploaded_bytes']:,}"]]
     if dense_ms:
-        print(f"\nempty TF costs {timed_empty(args, camera, ctf) / dense_ms * 100:.2f}% of the dense scene's frame")
+        empty = timed_empty(args, camera, ctf)
+        print(f"\nempty TF costs {empty / dense_ms * 100:.2f}% of the dense scene's frame")
+        rerender.append(["empty TF (share of the dense frame)", f"{empty:.1f} ({empty / dense_ms:.2%})", "0"])
+    write_table("rerender", command, ["frame", "ms", "bytes uploaded"], rerender, device=r.device,
+                note=f"{args.volume}^3 double_sphere with normals, {args.size}x{args.size}, balanced.")
 
 
 def peers(args, camera, ctf, ours):
@@ -172,6 +195,12 @@ def peers(args, camera, ctf, ours):
     for name, (gl, vt) in rows.items():
         o = ours[name]
         print(f"{name:38s} {o:8.1f} {gl:9.1f} {gl / o:6.1f} {vt:8.1f} {vt / o:6.1f}")
+    write_table("scene_peers", f"benches/scene_content.py --frames {args.frames}",
+                ["scene", "pyvr ms", "moderngl ms", "moderngl / pyvr", "VTK CPU ms", "VTK / pyvr"],
+                [[n, f"{ours[n]:.1f}", f"{gl:.0f}", f"{gl / ours[n]:.1f}", f"{vt:.0f}", f"{vt / ours[n]:.1f}"]
+                 for n, (gl, vt) in rows.items()],
+                note="Same scenes and run; pyvr with skipping, the moderngl reference at balanced, VTK's "
+                "vtkFixedPointVolumeRayCastMapper at sample distance 0.01.")
 
 
 def timed_empty(args, camera, ctf):
