@@ -7,8 +7,13 @@ use crate::volume::Voxels;
 
 fn constant_frame<'a>(data: &'a [f32], lut: &'a [[f32; 4]], cfg: RenderConfig) -> Frame<'a> {
     let vol = VolumeView::new([4, 4, 4], Voxels::F32(data), None, Bounds::default()).unwrap();
+    ambient_frame(vol, lut, cfg)
+}
+
+/// One pixel seen from (3, 0, 0) under ambient light only.
+fn ambient_frame<'a>(volume: VolumeView<'a>, lut: &'a [[f32; 4]], cfg: RenderConfig) -> Frame<'a> {
     Frame {
-        volume: vol,
+        volume,
         lut,
         camera: Camera { position: DVec3::new(3.0, 0.0, 0.0), target: DVec3::ZERO, up: DVec3::Z, fov_y: 0.5 },
         light: Light { ambient: 1.0, diffuse: 0.0, kind: LightKind::Directional, ..Light::default() },
@@ -104,19 +109,7 @@ fn midpoint_rule_converges_at_second_order() {
     let dir = DVec3::new(-1.0, 0.13, 0.07).normalize();
     let ray = |h: f64| {
         let cfg = RenderConfig { step_size: h, max_steps: 1 << 30, early_ray_termination: false, ..RenderConfig::default() };
-        let f = Frame {
-            volume: vol,
-            lut: &lut,
-            camera: Camera { position: DVec3::new(3.0, 0.0, 0.0), target: DVec3::ZERO, up: DVec3::Z, fov_y: 0.5 },
-            light: Light { ambient: 1.0, diffuse: 0.0, ..Light::default() },
-            config: cfg,
-            width: 1,
-            height: 1,
-            adaptive_tolerance: 0.0,
-            value_map: ValueMap::IDENTITY,
-            clip: None,
-        };
-        integrate_ray(&f, DVec3::new(3.0, 0.0, 0.0), dir).rgba
+        integrate_ray(&ambient_frame(vol, &lut, cfg), DVec3::new(3.0, 0.0, 0.0), dir).rgba
     };
     let reference = ray(0.04 / 64.0);
     let err = |h: f64| {
