@@ -225,8 +225,9 @@ def report(res):
 
 
 def short(p):
-    """A point's config and time: 'step 0.08, 258'."""
-    return f"{p['label']}, {p['ms']:.0f}"
+    """A point's config and time: 'step 0.08, 258' (float16 storage marked)."""
+    storage = " (float16)" if p["engine"] == "pyvr-f16" else ""
+    return f"{p['label']}{storage}, {p['ms']:.0f}"
 
 
 def write_tables(results, command, device):
