@@ -116,6 +116,10 @@ def test_render_path_checks_arguments_at_the_call(renderer):
         renderer.render_path(path, 0)
     with pytest.raises(RuntimeError, match="no volume loaded"):
         VolumeRenderer(8, 8).render_path(path, 2)
+    with pytest.raises(ValueError, match="origin must be"):
+        renderer.render_path(path, 2, origin="left")
+    with pytest.raises(ValueError, match="background must be three numbers"):
+        renderer.render_path(path, 2, background=(2, 0, 0))
 
 
 def test_render_path_progress_bar(renderer, capsys):

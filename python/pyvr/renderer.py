@@ -85,7 +85,8 @@ def _path_cameras(path, n_frames, endpoint):
     return cameras
 
 
-def _progress(progress, total):
+def _progress(progress):
+    """A function making a progress bar of n frames, or None for no bar."""
     if progress is False:
         return None
     try:
@@ -94,7 +95,7 @@ def _progress(progress, total):
         if progress:
             raise ImportError("progress bars need tqdm: pip install 'pyvr[progress]'") from None
         return None
-    return tqdm(total=total, unit="frame", desc="render_path")
+    return lambda total: tqdm(total=total, unit="frame", desc="render_path")
 
 
 def _check_size(size):
@@ -546,12 +547,19 @@ class VolumeRenderer:
         cameras = _path_cameras(path, n_frames, endpoint)
         if self.volume is None:
             raise RuntimeError("no volume loaded: call load_volume() before render_path()")
-        bar = _progress(progress, len(cameras))
+        if origin not in ("lower", "upper"):
+            raise ValueError(f"origin must be 'lower' or 'upper', got {origin!r}")
+        if np.dtype(dtype) not in (np.dtype(np.uint8), np.dtype(np.float32)):
+            raise ValueError(f"dtype must be uint8 or float32, got {np.dtype(dtype)}")
+        if background is not None:
+            _colour(background)
+        make_bar = _progress(progress)
         # The checks above run now; the frames when iterated.
-        return self._frames(cameras, bar, dict(origin=origin, background=background, dtype=dtype))
+        return self._frames(cameras, make_bar, dict(origin=origin, background=background, dtype=dtype))
 
-    def _frames(self, cameras, bar, options):
+    def _frames(self, cameras, make_bar, options):
         saved = (self.camera, self._camera_args, self.light.position, self.light.target, self._light_args)
+        bar = None if make_bar is None else make_bar(len(cameras))
         try:
             for cam in cameras:
                 self.set_camera(cam)
