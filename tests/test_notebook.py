@@ -48,6 +48,20 @@ def test_view_drag_is_cheap_then_full(renderer):
     assert renderer.get_camera() is view.camera
 
 
+def test_drag_sensitivity_follows_the_shown_size(renderer):
+    """The same drag across the same fraction of the view turns the camera
+    as much, whatever size the browser shows the view at."""
+    turns = []
+    for width, dx in ((96, 30), (192, 60)):
+        view = VolumeView(renderer)
+        view.handle_event({"type": "resize", "width": width, "height": width * 80 // 96, "pixel_ratio": 1.0})
+        az0 = view.camera.azimuth
+        view.handle_event({"type": "pointer_down", "x": 10, "y": 10, "button": 1})
+        view.handle_event({"type": "pointer_move", "x": 10 + dx, "y": 10, "button": 1})
+        turns.append(view.camera.azimuth - az0)
+    assert turns[0] == pytest.approx(turns[1], rel=1e-6) and abs(turns[0]) > 0.1
+
+
 def test_view_wheel_zooms_and_linked_light_follows(renderer):
     renderer.set_light(Light.camera_linked())
     view = VolumeView(renderer)

@@ -65,6 +65,7 @@ class VolumeView(RemoteFrameBuffer):
         self._interacting = False
         self._event_time: Optional[float] = None
         self._settle = None
+        self._view_size = (float(renderer.width), float(renderer.height))
         # Event-to-pixels seconds of the latest frames while interacting and after.
         self.drag_latencies: deque = deque(maxlen=200)
         self.release_latencies: deque = deque(maxlen=200)
@@ -86,8 +87,9 @@ class VolumeView(RemoteFrameBuffer):
             self._event_time = time.perf_counter()
             x, y = float(event["x"]), float(event["y"])
             x0, y0 = self._last_pos
-            # Browser y grows downward, as the trackball expects.
-            self.controller.trackball(x - x0, y - y0, self.renderer.width, self.renderer.height)
+            # Browser y grows downward, as the trackball expects; positions
+            # are in the view's logical pixels, whatever size it is shown at.
+            self.controller.trackball(x - x0, y - y0, *self._view_size)
             self._last_pos = (x, y)
             self.request_draw()
         elif kind == "pointer_up" and self._dragging:
@@ -103,6 +105,8 @@ class VolumeView(RemoteFrameBuffer):
                 self.request_draw()
                 self._settle_later()
         elif kind == "resize":
+            if event.get("width", 0) > 0 and event.get("height", 0) > 0:
+                self._view_size = (float(event["width"]), float(event["height"]))
             self.request_draw()
 
     def _begin(self) -> None:
