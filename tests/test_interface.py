@@ -144,6 +144,21 @@ def test_scroll_zooms_and_settles_to_full_quality(ui):
     assert ui.camera_controller.params.distance == pytest.approx(d0 * 0.9 * 1.1)
 
 
+def test_a_throttled_move_is_rendered_a_moment_later(ui):
+    ui._min_render_interval = 10.0  # every move after the first comes too soon
+    ui._last_render_time = 0.0
+    ax = ui.image_display.ax
+    mouse(ui, "button_press_event", ax, 0.5, 0.5)
+    before = shown(ui).copy()
+    mouse(ui, "motion_notify_event", ax, 0.6, 0.5)
+    first = shown(ui).copy()
+    assert first.shape != before.shape or not np.array_equal(first, before)  # the first move drew
+    mouse(ui, "motion_notify_event", ax, 0.7, 0.5)  # throttled: not drawn yet
+    assert np.array_equal(shown(ui), first) and ui.state.needs_render
+    ui._render_pending()  # what the timer calls
+    assert not np.array_equal(shown(ui), first) and not ui.state.needs_render
+
+
 def test_auto_quality_key_keeps_full_frames_while_dragging(ui):
     key(ui, "q")
     assert not ui.state.auto_quality_enabled

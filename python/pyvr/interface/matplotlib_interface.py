@@ -100,6 +100,7 @@ class InteractiveVolumeRenderer:
         self._interacting = False
         self._drawn = False
         self._scroll_timer = None
+        self._pending_timer = None
         self._event_time: Optional[float] = None
         # Event-to-pixels seconds of the latest frames, drag and full.
         self.drag_latencies: deque = deque(maxlen=200)
@@ -151,7 +152,10 @@ class InteractiveVolumeRenderer:
     def _update_display(self, force: bool = False) -> None:
         now = time.perf_counter()
         if not force and now - self._last_render_time < self._min_render_interval:
+            # Too soon after the last frame: render this state a moment
+            # later unless another event does first (the mouse may stop here).
             self.state.needs_render = True
+            self._render_later()
             return
         if self.state.needs_tf_update:
             self._update_transfer_functions()
@@ -175,6 +179,20 @@ class InteractiveVolumeRenderer:
             else:
                 self.release_latencies.append(latency)
             self._event_time = None
+
+    def _render_later(self) -> None:
+        if self.fig is None:
+            return
+        if self._pending_timer is None:
+            self._pending_timer = self.fig.canvas.new_timer(interval=max(1, int(self._min_render_interval * 1000)))
+            self._pending_timer.single_shot = True
+            self._pending_timer.add_callback(self._render_pending)
+        self._pending_timer.stop()
+        self._pending_timer.start()
+
+    def _render_pending(self) -> None:
+        if self.state.needs_render:
+            self._update_display(force=True)
 
     def _blit_image(self) -> None:
         """Redraw only the image axes (a full figure redraw costs more than a
@@ -405,8 +423,9 @@ class InteractiveVolumeRenderer:
         self._drawn = True
 
     def _on_close(self, event) -> None:
-        if self._scroll_timer is not None:
-            self._scroll_timer.stop()
+        for timer in (self._scroll_timer, self._pending_timer):
+            if timer is not None:
+                timer.stop()
 
     # -- public actions ----------------------------------------------------
     def _save_current_image(self, filename: Optional[str] = None) -> str:
