@@ -12,8 +12,6 @@ Needs: pip install 'pyvr[animation,progress]'
 import argparse
 import os
 
-import numpy as np
-
 import pyvr
 from _common import out_path
 from pyvr import RenderConfig, VolumeRenderer, save_animation
