@@ -245,8 +245,8 @@ def test_camera_misc(tmp_path, capsys):
     assert cam.target[0] == 0
     cam.save_to_file(tmp_path / "c.json")
     assert Camera.load_from_file(tmp_path / "c.json").to_dict() == cam.to_dict()
-    Camera(azimuth=20.0)
-    assert "unusually large" in capsys.readouterr().out
+    with pytest.warns(UserWarning, match="unusually large"):
+        Camera(azimuth=20.0)
     with pytest.raises(CameraError, match="azimuth must be finite"):
         validate_camera_angles(float("inf"), 0, 0)
     assert Camera(azimuth=np.float32(0.5)).azimuth == np.float32(0.5)
@@ -347,3 +347,32 @@ def test_module_layout():
     assert pyvr.transferfunctions.__version__ == "0.2.2" and pyvr.camera.__version__ == "0.2.1"
     for name in mr.__all__:
         assert hasattr(mr, name)
+
+
+def test_large_camera_angles_warn_instead_of_printing(capsys):
+    with pytest.warns(UserWarning, match="azimuth = 20.000 rad"):
+        Camera(azimuth=20.0)
+    assert capsys.readouterr().out == ""
+
+
+def test_random_blob_leaves_numpys_global_generator_alone():
+    np.random.seed(7)
+    expected = np.random.random()
+    np.random.seed(7)
+    a = create_sample_volume(16, "random_blob")
+    assert np.random.random() == expected
+    assert np.array_equal(a, create_sample_volume(16, "random_blob"))  # still seeded: the same blob every call
+
+
+def test_no_runtime_dir_message_without_xdg_runtime_dir():
+    """Mesa prints "XDG_RUNTIME_DIR is invalid or not set" when a device opens
+    without one; pyvr gives its process a private folder first."""
+    import os
+    import subprocess
+    import sys
+
+    env = {k: v for k, v in os.environ.items() if k != "XDG_RUNTIME_DIR"}
+    code = "import pyvr; r = pyvr.VolumeRenderer(4, 4); print(r.device != '')"
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120)
+    assert run.returncode == 0 and run.stdout.strip() == "True", run.stderr
+    assert "XDG_RUNTIME_DIR" not in run.stderr

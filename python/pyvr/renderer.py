@@ -9,6 +9,8 @@ its length; volumes without normals are shaded with gradients; point lights
 light from their position; any volume shape renders.
 """
 
+import os
+import tempfile
 import warnings
 from typing import Iterator, Optional
 
@@ -55,6 +57,18 @@ def _finite_vec(name, v):
     if a.shape != (3,) or not np.all(np.isfinite(a)):
         raise ValueError(f"{name} must be three finite numbers, got {v!r}")
     return (float(a[0]), float(a[1]), float(a[2]))
+
+
+def _runtime_dir() -> None:
+    """Mesa's Vulkan loader probes for a display and prints "error:
+    XDG_RUNTIME_DIR is invalid or not set" on the first device when that
+    variable names no usable folder (scripts, notebooks, services). Give
+    this process a private one before the device opens; a usable one the
+    user set is left alone."""
+    path = os.environ.get("XDG_RUNTIME_DIR")
+    if path and os.path.isdir(path) and os.access(path, os.W_OK | os.X_OK):
+        return
+    os.environ["XDG_RUNTIME_DIR"] = tempfile.mkdtemp(prefix="pyvr-runtime-")
 
 
 def _camera_tuple(camera: Camera):
@@ -174,6 +188,7 @@ class VolumeRenderer:
         self.height = int(height)
         self.volume: Optional[Volume] = None
         self.camera: Optional[Camera] = None
+        _runtime_dir()
         self._engine = _core.Renderer(self.width, self.height)
         self._camera_args = None
         self._warned = set()

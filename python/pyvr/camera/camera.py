@@ -1,6 +1,7 @@
 """The Camera: a target, spherical angles and a distance (pyvr 0.4.1)."""
 
 import json
+import warnings
 from dataclasses import dataclass, field
 from typing import Dict, Tuple
 
@@ -64,7 +65,10 @@ class Camera:
             if not is_number(v):
                 raise ValueError(f"{name} must be numeric")
             if abs(v) > 4 * np.pi:
-                print(f"Warning: {name} = {v:.3f} rad ({np.degrees(v):.1f}°) is unusually large")
+                # A warning, not pyvr's print: it can be filtered, and long
+                # turntable paths pass such angles on purpose.
+                warnings.warn(f"{name} = {v:.3f} rad ({np.degrees(v):.1f}°) is unusually large", UserWarning,
+                              stacklevel=3)
         if not is_number(self.distance) or not self.distance > 0:
             raise ValueError("distance must be positive")
         if not is_vec3(self.init_pos):

@@ -39,18 +39,20 @@ def create_sample_volume(size: int = 64, shape: str = "sphere") -> np.ndarray:
     elif shape == "random_blob":
         from scipy.ndimage import gaussian_filter
 
-        np.random.seed(42)
-        off = np.random.uniform(-1, 1, 3)
+        # pyvr's values (seed 42, the legacy generator), without reseeding
+        # numpy's global generator as pyvr did.
+        rng = np.random.RandomState(42)
+        off = rng.uniform(-1, 1, 3)
         xs, ys, zs = x + 0.5 * off[0], y + 0.5 * off[1], z + 0.5 * off[2]
-        noise = np.random.random((size, size, size)).astype(np.float32)
+        noise = rng.random_sample((size, size, size)).astype(np.float32)
         noise = gaussian_filter(noise, sigma=size / 18)
         g = (xs + 1.5) * (ys + 1.2) * (zs + 0.8)
         g = g / np.max(np.abs(g))
         v = noise * (0.7 + 0.3 * g)
         v = np.maximum(0, v - 0.25) * 2.5
         for _ in range(3):
-            cx, cy, cz = np.random.uniform(-0.7, 0.7, 3)
-            amp = np.random.uniform(0.5, 1.2)
+            cx, cy, cz = rng.uniform(-0.7, 0.7, 3)
+            amp = rng.uniform(0.5, 1.2)
             d = np.sqrt((x - cx) ** 2 + (y - cy) ** 2 + (z - cz) ** 2)
             v = v + np.exp(-((6 * d) ** 2)) * amp
         v = np.clip(v, 0, 1)
