@@ -9,8 +9,10 @@ its length; volumes without normals are shaded with gradients; point lights
 light from their position; any volume shape renders.
 """
 
+import functools
 import os
 import tempfile
+import threading
 import warnings
 from typing import Iterator, Optional
 
@@ -23,6 +25,18 @@ from .lighting import Light
 from .transferfunctions import ColorTransferFunction, OpacityTransferFunction
 from .transferfunctions.value_range import check_value_range, sample_map
 from .volume import Volume
+
+
+def _serialised(method):
+    """One thread at a time in the engine: it renders with the GIL released,
+    and a second call meanwhile would find it busy ("Already borrowed").
+    Other threads wait their turn instead."""
+    @functools.wraps(method)
+    def call(self, *args, **kwargs):
+        with self._lock:
+            return method(self, *args, **kwargs)
+
+    return call
 
 
 def _vec(v):
@@ -140,8 +154,9 @@ def prepare_voxels(data: np.ndarray) -> np.ndarray:
     voxel, read as fractions of their range), bool as uint8 0/255, anything
     else float32. C-contiguous; the caller's array is never modified."""
     a = np.asarray(data)
-    if a.dtype in (np.uint8, np.uint16):
-        return np.ascontiguousarray(a)
+    native = a.dtype.newbyteorder("=")  # big-endian files keep their values, in native bytes
+    if native in (np.uint8, np.uint16):
+        return np.ascontiguousarray(a, dtype=native)
     if a.dtype == np.bool_:
         return np.ascontiguousarray(a, dtype=np.uint8) * np.uint8(255)
     if not np.issubdtype(a.dtype, np.number) or np.issubdtype(a.dtype, np.complexfloating):
@@ -189,6 +204,7 @@ class VolumeRenderer:
         self.volume: Optional[Volume] = None
         self.camera: Optional[Camera] = None
         _runtime_dir()
+        self._lock = threading.RLock()
         self._engine = _core.Renderer(self.width, self.height)
         self._camera_args = None
         self._warned = set()
@@ -202,6 +218,7 @@ class VolumeRenderer:
         self._has_tf = False
 
     # -- scene -----------------------------------------------------------
+    @_serialised
     def load_volume(self, volume: Volume, *, precision: str = "float32") -> None:
         """Upload ``volume`` (data and normals are copied; later changes to
         the arrays need another load_volume).
@@ -260,6 +277,7 @@ class VolumeRenderer:
         self._light_args = _light_tuple(light)
         self._follow(getattr(self, "camera", None))
 
+    @_serialised
     def set_transfer_functions(self, color_transfer_function, opacity_transfer_function, size: Optional[int] = None,
                                *, value_range=None) -> None:
         """Tabulate both functions at ``size`` points (default: the larger
@@ -317,12 +335,14 @@ class VolumeRenderer:
             return self._tf_value_range
         return None if self.volume is None else self.volume.value_range
 
+    @_serialised
     def _update_value_map(self) -> None:
         if self.volume is None:
             return
         self._value_map = sample_map(self.value_range, self.volume.data.dtype)
         self._engine.set_value_map(*self._value_map)
 
+    @_serialised
     def set_crop_box(self, min_corner=None, max_corner=None) -> None:
         """Render only the part of the volume inside the box ``[min_corner,
         max_corner]`` (world coordinates; shadow rays stop at it too).
@@ -371,8 +391,10 @@ class VolumeRenderer:
 
     @empty_space_skipping.setter
     def empty_space_skipping(self, on: bool) -> None:
-        self._engine.skip_empty = bool(on)
+        with self._lock:
+            self._engine.skip_empty = bool(on)
 
+    @_serialised
     def empty_fraction(self) -> float:
         """Fraction of the volume's cells the current transfer function leaves empty."""
         return self._engine.empty_fraction()
@@ -382,11 +404,13 @@ class VolumeRenderer:
         """The GPU adapter in use (e.g. 'llvmpipe (Vulkan, Cpu, ...)')."""
         return self._engine.device
 
+    @_serialised
     def counters(self) -> dict:
         """Frames rendered, uploads made and bytes resident, for profiling."""
         return self._engine.counters()
 
     # -- frames ----------------------------------------------------------
+    @_serialised
     def _render_float(self, size=None, config: Optional[RenderConfig] = None) -> np.ndarray:
         if self.volume is None:
             raise RuntimeError("no volume loaded: call load_volume() before render()")
@@ -528,6 +552,7 @@ class VolumeRenderer:
             raise RuntimeError("config_for_error needs load_volume() and set_transfer_functions() first")
         return config_for_error(self, max_error_levels, **options)[0]
 
+    @_serialised
     def depth(self, *, origin: str = "lower") -> Optional[np.ndarray]:
         """Distance from the camera to the isosurface along each pixel's ray
         in the last frame (float32 (H, W), inf where the ray hit no surface),

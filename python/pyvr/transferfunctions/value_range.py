@@ -54,7 +54,7 @@ def storage_unit(dtype) -> float:
     """Data units per unit of what the device samples: uint8 and uint16 are
     stored as normalised integers (a sample reads value / 255 or / 65535);
     everything else reads its value."""
-    dt = np.dtype(dtype)
+    dt = np.dtype(dtype).newbyteorder("=")  # byte order is storage, not meaning
     if dt == np.uint8:
         return 255.0
     if dt == np.uint16:
