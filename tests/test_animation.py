@@ -235,3 +235,16 @@ def test_drag_quality_start_predicts_from_measured_cost(renderer):
     assert SCALES[q.level] == 0.375  # 0.5 of each side would take 1.01 budgets; 0.375 fits
     with pytest.raises(ValueError, match="target_fps must be a positive number"):
         DragQuality(renderer, target_fps=0)
+
+
+def test_a_long_path_streams_its_cameras(renderer):
+    """A billion-frame path starts at once: cameras are made as frames are
+    rendered (building them all first would take hours and gigabytes)."""
+    import time
+
+    t = time.perf_counter()
+    frames = renderer.render_path(CameraPath.orbit(Camera.isometric_view()), 10**9, progress=False)
+    first = next(frames)
+    frames.close()
+    assert time.perf_counter() - t < 5.0
+    assert np.array_equal(first, single(renderer, Camera.isometric_view(), origin="upper"))

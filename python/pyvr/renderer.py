@@ -96,10 +96,12 @@ def _light_tuple(light: Light):
 
 
 def _path_cameras(path, n_frames, endpoint):
+    """(number of frames, the cameras): a CameraPath's are made as the frames
+    are rendered, so a long path never holds all its cameras at once."""
     if isinstance(path, CameraPath):
         if n_frames is None:
             raise TypeError("render_path needs n_frames with a CameraPath: render_path(path, n_frames)")
-        return path.cameras(n_frames, endpoint=endpoint)
+        return int(n_frames), path.iter_cameras(n_frames, endpoint=endpoint)
     if isinstance(path, Camera) or not hasattr(path, "__iter__"):
         raise TypeError(f"path must be a CameraPath or a sequence of Camera, got {type(path).__name__}")
     cameras = list(path)
@@ -110,7 +112,7 @@ def _path_cameras(path, n_frames, endpoint):
             raise TypeError(f"path item {i} must be a Camera, got {type(c).__name__}")
     if not cameras:
         raise ValueError("path holds no cameras")
-    return cameras
+    return len(cameras), cameras
 
 
 def _progress(progress):
@@ -584,7 +586,7 @@ class VolumeRenderer:
         renderer's own camera (and linked light) is restored when the
         generator finishes, fails, is closed or is interrupted with Ctrl-C.
         """
-        cameras = _path_cameras(path, n_frames, endpoint)
+        count, cameras = _path_cameras(path, n_frames, endpoint)
         if self.volume is None:
             raise RuntimeError("no volume loaded: call load_volume() before render_path()")
         if origin not in ("lower", "upper"):
@@ -595,11 +597,11 @@ class VolumeRenderer:
             _colour(background)
         make_bar = _progress(progress)
         # The checks above run now; the frames when iterated.
-        return self._frames(cameras, make_bar, dict(origin=origin, background=background, dtype=dtype))
+        return self._frames(count, cameras, make_bar, dict(origin=origin, background=background, dtype=dtype))
 
-    def _frames(self, cameras, make_bar, options):
+    def _frames(self, count, cameras, make_bar, options):
         saved = (self.camera, self._camera_args, self.light.position, self.light.target, self._light_args)
-        bar = None if make_bar is None else make_bar(len(cameras))
+        bar = None if make_bar is None else make_bar(count)
         try:
             for cam in cameras:
                 self.set_camera(cam)

@@ -1,6 +1,6 @@
 """Camera placement from spherical parameters, paths and interactive control."""
 
-from typing import List, Optional, Tuple
+from typing import Iterator, List, Optional, Tuple
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -181,11 +181,20 @@ class CameraPath:
     def cameras(self, n_frames: int, *, endpoint: bool = True) -> List[Camera]:
         """``n_frames`` cameras evenly spaced in t; ``endpoint=False`` leaves
         out t = 1 (for loops whose last keyframe repeats the first)."""
+        return list(self.iter_cameras(n_frames, endpoint=endpoint))
+
+    def iter_cameras(self, n_frames: int, *, endpoint: bool = True) -> Iterator[Camera]:
+        """The cameras of ``cameras()``, made one at a time (long paths)."""
         _check_frames(n_frames)
+        return self._iter(int(n_frames), endpoint)
+
+    def _iter(self, n_frames: int, endpoint: bool) -> Iterator[Camera]:
         if n_frames == 1:
-            return [self.keyframes[0].copy()]
+            yield self.keyframes[0].copy()
+            return
         d = (n_frames - 1) if endpoint else n_frames
-        return [self.interpolate(i / d) for i in range(n_frames)]
+        for i in range(n_frames):
+            yield self.interpolate(i / d)
 
     def interpolate(self, t: float) -> Camera:
         if not (0.0 <= t <= 1.0):
