@@ -16,7 +16,7 @@ ValueError, and numpy scalars are accepted wherever numbers are.
 from ._core import RenderConfig
 
 
-class RenderConfigError(Exception):
+class RenderConfigError(ValueError):
     """Kept for compatibility with pyvr 0.4.1 (never raised)."""
 
 

@@ -14,11 +14,13 @@ import os
 import tempfile
 import threading
 import warnings
+import weakref
 from typing import Iterator, Optional
 
 import numpy as np
 
 from . import _core
+from ._numbers import check_count
 from .camera import Camera, CameraPath
 from .config import RenderConfig
 from .lighting import Light
@@ -128,6 +130,17 @@ def _progress(progress):
     return lambda total: tqdm(total=total, unit="frame", desc="render_path")
 
 
+def _table_of(tf, n, shape, what):
+    """``tf.to_lut(n)`` checked: real numbers of ``shape`` ((n, 1) is taken
+    for (n,)), so a custom function's mistake is an error, not a picture."""
+    table = np.asarray(tf.to_lut(n))
+    if not (np.issubdtype(table.dtype, np.integer) or np.issubdtype(table.dtype, np.floating)):
+        raise TypeError(f"{type(tf).__name__}.to_lut({n}) must return real {what}, got dtype {table.dtype}")
+    if table.shape != shape and not (len(shape) == 1 and table.shape == shape + (1,)):
+        raise ValueError(f"{type(tf).__name__}.to_lut({n}) must return {what} of shape {shape}, got {table.shape}")
+    return table.reshape(shape)
+
+
 def _check_size(size):
     if size is None:
         return None
@@ -136,10 +149,7 @@ def _check_size(size):
     except (TypeError, ValueError):
         raise TypeError(f"size must be (width, height), got {size!r}") from None
     for name, v in (("width", w), ("height", h)):
-        if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
-            raise TypeError(f"size {name} must be an integer, got {type(v).__name__}")
-        if v < 1:
-            raise ValueError(f"size {name} must be at least 1, got {v}")
+        check_count(f"size {name}", v, high=2**32 - 1)
     return (int(w), int(h))
 
 
@@ -151,28 +161,129 @@ def _straight(img: np.ndarray) -> np.ndarray:
         return np.clip(np.where(a > 0, img[..., :3] / np.where(a > 0, a, 1), img[..., :3]), 0.0, 1.0)
 
 
+def _storage_dtype(dtype) -> np.dtype:
+    """The dtype the engine stores data of ``dtype`` as (see prepare_voxels)."""
+    native = np.dtype(dtype).newbyteorder("=")
+    if native in (np.uint8, np.uint16):
+        return native
+    if native == np.bool_:
+        return np.dtype(np.uint8)
+    return np.dtype(np.float32)
+
+
 def prepare_voxels(data: np.ndarray) -> np.ndarray:
     """The array the engine stores: uint8/uint16 kept (1 or 2 bytes per
     voxel, read as fractions of their range), bool as uint8 0/255, anything
-    else float32. C-contiguous; the caller's array is never modified."""
+    else float32. A masked array's masked voxels become NaN (missing data:
+    empty), its integers the fractions they are read as. C-contiguous and
+    aligned; the caller's array is never modified."""
+    if isinstance(data, np.ma.MaskedArray):
+        from .transferfunctions.value_range import storage_unit
+
+        mask = np.ma.getmaskarray(data)
+        values = prepare_voxels(np.ma.getdata(data))
+        if not mask.any():
+            return values
+        out = values.astype(np.float32) / np.float32(storage_unit(values.dtype))
+        out[mask] = np.nan
+        return out
     a = np.asarray(data)
-    native = a.dtype.newbyteorder("=")  # big-endian files keep their values, in native bytes
-    if native in (np.uint8, np.uint16):
-        return np.ascontiguousarray(a, dtype=native)
-    if a.dtype == np.bool_:
-        return np.ascontiguousarray(a, dtype=np.uint8) * np.uint8(255)
-    if not np.issubdtype(a.dtype, np.number) or np.issubdtype(a.dtype, np.complexfloating):
+    if not np.issubdtype(a.dtype, np.number) and a.dtype != np.bool_ or np.issubdtype(a.dtype, np.complexfloating):
         raise TypeError(f"Volume data must be a real numeric array, got dtype {a.dtype}")
-    return np.ascontiguousarray(a, dtype=np.float32)
+    out = np.require(a, dtype=_storage_dtype(a.dtype), requirements=["C", "A"])
+    if a.dtype == np.bool_:
+        out = out * np.uint8(255)
+    return out
 
 
 def prepare_normals(normals: Optional[np.ndarray]) -> Optional[np.ndarray]:
     if normals is None:
         return None
     n = np.asarray(normals)
-    if not np.issubdtype(n.dtype, np.number):
+    if not np.issubdtype(n.dtype, np.number) or np.issubdtype(n.dtype, np.complexfloating):
         raise TypeError(f"normals must be a real numeric array, got dtype {n.dtype}")
-    return np.ascontiguousarray(n, dtype=np.float32)
+    return np.require(n, dtype=np.float32, requirements=["C", "A"])
+
+
+_LIMITS: dict = {}
+
+
+def device_limits() -> dict:
+    """This process's device limits (queried once per process)."""
+    pid = os.getpid()
+    if pid not in _LIMITS:
+        _LIMITS.clear()
+        _LIMITS[pid] = _core.device_limits()
+    return _LIMITS[pid]
+
+
+def _check_volume_fits(volume: Volume, precision: str) -> None:
+    """Device and host limits, checked before any copy of the data."""
+    shape = volume.data.shape
+    limits = device_limits()
+    axis = limits["max_texture_dimension_3d"]
+    if max(shape) > axis:
+        raise ValueError(
+            f"volume shape {shape} has an axis over this device's 3-D texture limit of {axis} voxels: "
+            "downsample it (e.g. volume.data[::2, ::2, ::2]) or crop it"
+        )
+    voxels = int(np.prod(shape, dtype=np.int64))
+    stored = _storage_dtype(volume.data.dtype)
+    texel = 2 if precision == "float16" and stored == np.float32 else stored.itemsize
+    if isinstance(volume.data, np.ma.MaskedArray):
+        texel = 4
+    device_bytes = voxels * texel + (0 if volume.normals is None else voxels * 4)
+    if device_bytes > limits["max_buffer_size"]:
+        raise ValueError(
+            f"volume shape {shape} needs {device_bytes} bytes on the device, over its limit of "
+            f"{limits['max_buffer_size']} bytes per upload; downsample or crop it"
+            + (", or load it with precision='float16'" if texel == 4 and precision == "float32" else "")
+        )
+    copy = 0 if np.asarray(volume.data).dtype == stored and volume.data.flags.c_contiguous else voxels * stored.itemsize
+    from ._memory import check_fits
+
+    # A converted copy, then packing and the driver's staging copy of what the device stores.
+    check_fits(f"loading volume {shape}", copy + 2 * device_bytes, "downsample or crop the volume")
+
+
+#: Samples a frame may take before a warning says it will be slow: about a
+#: minute on a software renderer, seconds on a GPU.
+LONG_FRAME_SAMPLES = 5e9
+#: The same for the float64 integrator (one CPU core does about 1e7 per second).
+LONG_FLOAT64_SAMPLES = 5e8
+
+
+def _frame_samples(bounds, cfg: RenderConfig, width: int, height: int) -> float:
+    """An upper bound on a frame's samples: every ray across the box's diagonal."""
+    diag = float(np.linalg.norm(np.subtract(bounds[1], bounds[0])))
+    per_ray = min(float(cfg.max_steps), diag / cfg.step_size + 2.0)
+    if cfg.model == "single_scattering":
+        shadow = cfg.shadow_step_size or cfg.step_size
+        per_ray *= diag / shadow + 1.0
+    return float(width) * float(height) * per_ray
+
+
+def _warn_if_long(what: str, samples: float, limit: float) -> None:
+    if samples > limit:
+        warnings.warn(
+            f"{what} may take up to {samples:.3g} samples (step_size, max_steps and image size decide this), "
+            "which can take minutes; press Ctrl-C to stop it",
+            UserWarning,
+            stacklevel=4,
+        )
+
+
+_RENDERERS: "weakref.WeakSet" = weakref.WeakSet()
+
+
+def _after_fork_in_child() -> None:
+    # A lock held by a parent thread at the fork would stay held for ever.
+    for r in list(_RENDERERS):
+        r._lock = threading.RLock()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_after_fork_in_child)
 
 
 class VolumeRenderer:
@@ -189,10 +300,7 @@ class VolumeRenderer:
 
     def __init__(self, width: int = 512, height: int = 512, config: Optional[RenderConfig] = None, light: Optional[Light] = None):
         for name, v in (("width", width), ("height", height)):
-            if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
-                raise TypeError(f"{name} must be an integer, got {type(v)}")
-            if v < 1:
-                raise ValueError(f"{name} must be at least 1, got {v}")
+            check_count(name, v, high=2**32 - 1)
         if config is None:
             config = RenderConfig.balanced()
         elif not isinstance(config, RenderConfig):
@@ -207,7 +315,11 @@ class VolumeRenderer:
         self.camera: Optional[Camera] = None
         _runtime_dir()
         self._lock = threading.RLock()
-        self._engine = _core.Renderer(self.width, self.height)
+        self._engine_obj = _core.Renderer(self.width, self.height)
+        self._engine_pid = os.getpid()
+        self._precision = "float32"
+        self._lut = None
+        _RENDERERS.add(self)
         self._camera_args = None
         self._warned = set()
         self.last_frame_stats: dict = {}
@@ -218,6 +330,29 @@ class VolumeRenderer:
         self.set_config(config)
         self.set_light(light)
         self._has_tf = False
+
+    @property
+    def _engine(self):
+        """The core renderer; in a child made by fork() a new one, made on
+        first use and given this renderer's volume and tables, since the
+        parent's GPU device does not work in the child."""
+        if self._engine_pid != os.getpid():
+            self._engine_for_this_process()
+        return self._engine_obj
+
+    def _engine_for_this_process(self) -> None:
+        skip = self._engine_obj.skip_empty
+        engine = _core.Renderer(self._engine_obj.width, self._engine_obj.height)
+        engine.skip_empty = skip
+        if self.volume is not None:
+            engine.set_volume(prepare_voxels(self.volume.data), prepare_normals(self.volume.normals),
+                              *self._bounds, self._precision)
+        if self._lut is not None:
+            engine.set_lut(self._lut)
+        engine.set_value_map(*self._value_map)
+        engine.set_clip(self._crop)
+        # The parent's engine is leaked by the core, never freed here.
+        self._engine_obj, self._engine_pid = engine, os.getpid()
 
     # -- scene -----------------------------------------------------------
     @_serialised
@@ -248,11 +383,13 @@ class VolumeRenderer:
                 "from pyvr.volume import Volume; volume = Volume(data=your_array)"
             )
         volume.validate()
-        data = prepare_voxels(volume.data)
-        normals = prepare_normals(volume.normals)
         if precision not in ("float32", "float16"):
             raise ValueError(f"precision must be 'float32' or 'float16', got {precision!r}")
+        _check_volume_fits(volume, precision)
+        data = prepare_voxels(volume.data)
+        normals = prepare_normals(volume.normals)
         self._engine.set_volume(data, normals, _vec(volume.min_bounds), _vec(volume.max_bounds), precision)
+        self._precision = precision
         self.volume = volume
         self._bounds = (_vec(volume.min_bounds), _vec(volume.max_bounds))
         self._update_value_map()
@@ -303,12 +440,15 @@ class VolumeRenderer:
             )
         elif ranges:
             value_range = ranges.pop()
-        n = size or max(color_transfer_function.lut_size, opacity_transfer_function.lut_size)
-        rgb = np.asarray(color_transfer_function.to_lut(n), dtype=np.float32).reshape(n, 3)
-        alpha = np.asarray(opacity_transfer_function.to_lut(n), dtype=np.float32).reshape(n)
+        limit = device_limits()["max_texture_dimension_2d"]
+        if size is None:
+            n = max(check_count("color_transfer_function.lut_size", color_transfer_function.lut_size, high=limit),
+                    check_count("opacity_transfer_function.lut_size", opacity_transfer_function.lut_size, high=limit))
+        else:
+            n = check_count("size", size, high=limit)
         lut = np.empty((n, 4), dtype=np.float32)
-        lut[:, :3] = rgb
-        lut[:, 3] = alpha
+        lut[:, :3] = _table_of(color_transfer_function, n, (n, 3), "colours")
+        lut[:, 3] = _table_of(opacity_transfer_function, n, (n,), "opacities")
         if not np.all(np.isfinite(lut)) or lut.min() < 0 or lut.max() > 1:
             raise ValueError("transfer functions must give colours and opacities in [0, 1]")
         self._engine.set_lut(lut)
@@ -429,6 +569,7 @@ class VolumeRenderer:
             camera_args = _camera_tuple(camera)
         else:
             camera_args = self._camera_args
+        _warn_if_long("this frame", _frame_samples(self._bounds, cfg, *size), LONG_FRAME_SAMPLES)
         img, stats = self._engine.render(camera_args, self._light_args, cfg)
         self.last_frame_stats = stats
         needed = stats["truncated_needed"]
@@ -530,9 +671,17 @@ class VolumeRenderer:
             camera = _camera_tuple(cam)
         else:
             camera = self._camera_args
-        width, height = (self.width, self.height) if size is None else (int(size[0]), int(size[1]))
-        if width < 1 or height < 1:
-            raise ValueError(f"size must be two positive integers, got {size!r}")
+        if not (isinstance(adaptive_tolerance, (int, float, np.floating, np.integer))
+                and not isinstance(adaptive_tolerance, (bool, np.bool_))):
+            raise TypeError(f"adaptive_tolerance must be a number, got {type(adaptive_tolerance).__name__}")
+        width, height = (self.width, self.height) if size is None else _check_size(size)
+        from ._memory import check_fits
+
+        # The float64 image, depth and per-ray results (about 160 bytes a pixel), and the volume copy.
+        check_fits(f"render_float64 at {width}x{height}", 160.0 * width * height + self.volume.data.size * 4.0,
+                   "render a smaller size=(width, height)")
+        samples = _frame_samples(self._bounds, cfg, width, height) * (8 if adaptive_tolerance > 0 else 1)
+        _warn_if_long("render_float64", samples, LONG_FLOAT64_SAMPLES)
         img, _, depth = _core.integrate_reference(
             prepare_voxels(self.volume.data), prepare_normals(self.volume.normals), *self._bounds, self._lut,
             camera, self._light_args, cfg, width, height, order, float(adaptive_tolerance),

@@ -2,7 +2,7 @@
 //! the limits and features actually present, and error capture.
 
 use crate::error::Error;
-use std::sync::{Arc, Mutex, OnceLock};
+use std::sync::{Arc, Mutex};
 
 pub struct GpuContext {
     pub device: wgpu::Device,
@@ -14,7 +14,35 @@ pub struct GpuContext {
     pub(crate) uncaptured: Arc<Mutex<Vec<String>>>,
 }
 
-static CONTEXT: OnceLock<Result<Arc<GpuContext>, Error>> = OnceLock::new();
+static CONTEXT: ProcessSlot<Result<Arc<GpuContext>, Error>> = ProcessSlot::new();
+
+/// A value made once per process. A child made by fork() inherits the
+/// parent's value, whose GPU objects it cannot use (the driver's threads
+/// stayed in the parent): the child makes its own, and the inherited one is
+/// leaked, never used or dropped, since dropping it would call the driver.
+pub struct ProcessSlot<T>(Mutex<Option<(u32, T)>>);
+
+impl<T: Clone> ProcessSlot<T> {
+    pub const fn new() -> Self {
+        ProcessSlot(Mutex::new(None))
+    }
+
+    pub fn get_or_make(&self, make: impl FnOnce() -> T) -> T {
+        let pid = std::process::id();
+        let mut slot = self.0.lock().unwrap_or_else(|p| p.into_inner());
+        if let Some((owner, value)) = slot.as_ref() {
+            if *owner == pid {
+                return value.clone();
+            }
+        }
+        if let Some(inherited) = slot.take() {
+            std::mem::forget(inherited);
+        }
+        let value = make();
+        *slot = Some((pid, value.clone()));
+        value
+    }
+}
 
 /// Which backends to try. `PYVR_BACKEND` (vulkan, metal, dx12, gl) or wgpu's
 /// `WGPU_BACKEND` override; otherwise the native APIs only. GL is left out
@@ -38,7 +66,7 @@ fn requested_backends() -> Result<wgpu::Backends, Error> {
 impl GpuContext {
     /// The process-wide context, created on first use.
     pub fn get() -> Result<Arc<GpuContext>, Error> {
-        CONTEXT.get_or_init(|| GpuContext::create().map(Arc::new)).clone()
+        CONTEXT.get_or_make(|| GpuContext::create().map(Arc::new))
     }
 
     fn create() -> Result<GpuContext, Error> {

@@ -1,6 +1,9 @@
 //! The uniform block every frame writes (the shader's `Params`, in
 //! shaders/bindings.wgsl) and how a frame's inputs fill it. Positions are
-//! relative to the volume's min corner, so the shader's box is [0, extent].
+//! relative to the volume's min corner and lengths are in units of the box's
+//! longest side (`world_unit`), so the shader's box is [0, extent] with
+//! extent <= 1 whatever the scene's scale: f32 neither overflows for a scene
+//! measured in light years nor underflows for one in femtometres.
 
 use crate::config::RenderConfig;
 use crate::preintegrate;
@@ -73,7 +76,7 @@ uniform_block! {
 }
 
 fn v4(v: DVec3) -> [f32; 4] {
-    [v.x as f32, v.y as f32, v.z as f32, 0.0]
+    [finite_f32(v.x), finite_f32(v.y), finite_f32(v.z), 0.0]
 }
 
 /// What a frame's block is made of besides the camera, light and config.
@@ -89,11 +92,25 @@ pub struct FrameInputs {
     pub clip: Option<Bounds>,
 }
 
+/// World length of one shader length unit for a volume in `bounds`: its
+/// longest side. Distances the shader reports (isosurface depth) are
+/// multiplied by it.
+pub fn world_unit(bounds: &Bounds) -> f64 {
+    bounds.extent().max_element()
+}
+
+/// An f64 as the nearest finite f32 (a reciprocal of a tiny length must not
+/// become infinity, whose product with a zero opacity is NaN).
+fn finite_f32(v: f64) -> f32 {
+    v.clamp(-(f32::MAX as f64), f32::MAX as f64) as f32
+}
+
 impl Params {
     /// The block of a single-pass frame (passes set `pass_*` themselves).
     pub fn new(f: &FrameInputs, basis: &RayBasis, light: &Light, cfg: &RenderConfig) -> Params {
         let b = f.bounds;
-        let ext = b.extent();
+        let s = 1.0 / world_unit(&b);
+        let ext = b.extent() * s;
         let spacing = ext / DVec3::new(f.dims[0] as f64, f.dims[1] as f64, f.dims[2] as f64);
         let light_dir = (light.target - light.position).normalize_or_zero();
         // A crop that misses the volume leaves an empty box: no ray enters it.
@@ -102,17 +119,17 @@ impl Params {
             None => b,
         };
         Params {
-            cam_pos: v4(basis.origin - b.min),
+            cam_pos: v4((basis.origin - b.min) * s),
             cam_fwd: v4(basis.forward),
             cam_right: v4(basis.right),
             cam_up: v4(basis.up),
             extent: v4(ext),
             inv_extent: v4(1.0 / ext),
             inv_two_spacing: v4(0.5 / spacing),
-            light_pos: v4(light.position - b.min),
+            light_pos: v4((light.position - b.min) * s),
             light_dir: v4(light_dir),
-            step_size: cfg.step_size as f32,
-            inv_ref: (1.0 / cfg.reference_step_size) as f32,
+            step_size: (cfg.step_size * s) as f32,
+            inv_ref: finite_f32(1.0 / (cfg.reference_step_size * s)),
             ambient: light.ambient as f32,
             diffuse: light.diffuse as f32,
             threshold: cfg.opacity_threshold as f32,
@@ -129,13 +146,13 @@ impl Params {
             jitter_seed: cfg.jitter_seed,
             iso_value: cfg.iso_value as f32,
             anisotropy: cfg.anisotropy as f32,
-            shadow_step: cfg.shadow_step() as f32,
+            shadow_step: (cfg.shadow_step() * s) as f32,
             preint_side: preintegrate::table_side(f.lut_size as usize) as f32,
             value_scale: f.value_map.scale as f32,
             value_offset: f.value_map.offset as f32,
             value_pad: [0.0; 2],
-            clip_lo: v4(clip.min - b.min),
-            clip_hi: v4(clip.max - b.min),
+            clip_lo: v4((clip.min - b.min) * s),
+            clip_hi: v4((clip.max - b.min) * s),
         }
     }
 }

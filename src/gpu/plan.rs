@@ -20,6 +20,8 @@ pub const PASS_STEPS: u32 = 16384;
 pub const PASS_ITERATIONS: u64 = 60_000;
 /// Longest shadow ray, in steps, single scattering accepts.
 pub const MAX_SHADOW_STEPS: u64 = 30_000;
+/// Fewest steps a pass split for time marches.
+pub const MIN_PASS_STEPS: u64 = 16;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct PassPlan {
@@ -34,14 +36,26 @@ pub struct PassPlan {
     pub per_pixel_state: bool,
 }
 
-/// The passes for rays from `camera` through `bounds` at `cfg`.
+/// The passes for `pixels` rays from `camera` through `bounds` at `cfg`.
 /// `shadow_rays`: single scattering with a light, where every step may march
-/// a shadow ray across the box.
-pub fn plan(cfg: &RenderConfig, bounds: &Bounds, camera: DVec3, shadow_rays: bool) -> Result<PassPlan, Error> {
+/// a shadow ray across the box. A frame of more than twice `pass_samples`
+/// samples is split into passes of about `pass_samples` each, so that the
+/// caller regains control (to stop on Ctrl-C) every pass; shorter frames
+/// keep one pass.
+pub fn plan(
+    cfg: &RenderConfig,
+    bounds: &Bounds,
+    camera: DVec3,
+    shadow_rays: bool,
+    pixels: u64,
+    pass_samples: u64,
+) -> Result<PassPlan, Error> {
     let max_steps = cfg.max_steps.clamp(0, u32::MAX as i64) as u64;
     let longest = bounds.max_chord_from(camera);
     let max_n = cfg.steps_for_length(longest).saturating_add(2).min(max_steps);
     let mut pass_steps = PASS_STEPS as u64;
+    // Samples one step of one ray takes, its shadow ray's included.
+    let mut samples_per_step = 1u64;
     if shadow_rays {
         let diagonal = bounds.extent().length();
         let shadow = (diagonal / cfg.shadow_step()).ceil() + 1.0;
@@ -52,7 +66,12 @@ pub fn plan(cfg: &RenderConfig, bounds: &Bounds, camera: DVec3, shadow_rays: boo
                 diagonal / MAX_SHADOW_STEPS as f64
             )));
         }
-        pass_steps = (PASS_ITERATIONS / (shadow as u64 + 1)).clamp(1, PASS_STEPS as u64);
+        samples_per_step = shadow as u64 + 1;
+        pass_steps = (PASS_ITERATIONS / samples_per_step).clamp(1, PASS_STEPS as u64);
+    }
+    let per_step = pixels.max(1).saturating_mul(samples_per_step);
+    if per_step.saturating_mul(max_n) > pass_samples.saturating_mul(2) {
+        pass_steps = (pass_samples / per_step).clamp(MIN_PASS_STEPS.min(pass_steps), pass_steps);
     }
     let passes = max_n.div_ceil(pass_steps).max(1);
     if passes > u32::MAX as u64 {
@@ -70,6 +89,8 @@ pub fn plan(cfg: &RenderConfig, bounds: &Bounds, camera: DVec3, shadow_rays: boo
 mod tests {
     use super::*;
 
+    const ANY: u64 = u64::MAX / 4;
+
     fn cube() -> Bounds {
         Bounds::new(DVec3::splat(-1.0), DVec3::splat(1.0)).unwrap()
     }
@@ -77,7 +98,7 @@ mod tests {
     #[test]
     fn short_rays_take_one_pass() {
         let cfg = RenderConfig::default();
-        let p = plan(&cfg, &cube(), DVec3::new(3.0, 0.0, 0.0), false).unwrap();
+        let p = plan(&cfg, &cube(), DVec3::new(3.0, 0.0, 0.0), false, 1, ANY).unwrap();
         assert_eq!((p.passes, p.pass_steps, p.per_pixel_state), (1, PASS_STEPS, false));
         // The longest chord from (3, 0, 0) is under 2*sqrt(3): 347 steps of 0.01, plus 2.
         assert!(p.max_steps_needed <= 349 && p.max_steps_needed > 200);
@@ -86,28 +107,44 @@ mod tests {
     #[test]
     fn long_rays_take_several_passes_with_state() {
         let cfg = RenderConfig { step_size: 1e-4, max_steps: 100_000, ..RenderConfig::default() };
-        let p = plan(&cfg, &cube(), DVec3::new(3.0, 0.0, 0.0), false).unwrap();
+        let p = plan(&cfg, &cube(), DVec3::new(3.0, 0.0, 0.0), false, 1, ANY).unwrap();
         assert_eq!(p.passes as u64, p.max_steps_needed.div_ceil(PASS_STEPS as u64));
         assert!(p.passes >= 2 && p.per_pixel_state);
         // max_steps bounds the work whatever the box.
         let capped = RenderConfig { max_steps: 10, ..cfg };
-        assert_eq!(plan(&capped, &cube(), DVec3::new(3.0, 0.0, 0.0), false).unwrap().max_steps_needed, 10);
+        assert_eq!(plan(&capped, &cube(), DVec3::new(3.0, 0.0, 0.0), false, 1, ANY).unwrap().max_steps_needed, 10);
     }
 
     #[test]
     fn shadow_rays_shorten_passes_and_have_a_limit() {
         let cfg = RenderConfig { model: Model::SingleScattering, shadow_step_size: 0.01, ..RenderConfig::default() };
-        let p = plan(&cfg, &cube(), DVec3::new(3.0, 0.0, 0.0), true).unwrap();
+        let p = plan(&cfg, &cube(), DVec3::new(3.0, 0.0, 0.0), true, 1, ANY).unwrap();
         let shadow = (cube().extent().length() / 0.01).ceil() as u64 + 1;
         assert_eq!(p.pass_steps as u64, PASS_ITERATIONS / (shadow + 1));
         let tiny = RenderConfig { shadow_step_size: 1e-6, ..cfg };
-        let err = plan(&tiny, &cube(), DVec3::new(3.0, 0.0, 0.0), true).unwrap_err();
+        let err = plan(&tiny, &cube(), DVec3::new(3.0, 0.0, 0.0), true, 1, ANY).unwrap_err();
         assert!(matches!(err, Error::InvalidInput(ref m) if m.contains("shadow_step_size must be at least")), "{err}");
+    }
+
+    #[test]
+    fn long_frames_are_split_for_time_and_short_ones_are_not() {
+        let cfg = RenderConfig { step_size: 1e-3, max_steps: 100_000, ..RenderConfig::default() };
+        let far = DVec3::new(3.0, 0.0, 0.0);
+        // 2^16 pixels, about 3.5k steps each: 2.3e8 samples against a budget of 2^22.
+        let p = plan(&cfg, &cube(), far, false, 1 << 16, 1 << 22).unwrap();
+        assert_eq!(p.pass_steps, 64);
+        assert_eq!(p.passes as u64, p.max_steps_needed.div_ceil(64));
+        // The same frame within twice the budget keeps one pass.
+        let one = plan(&cfg, &cube(), far, false, 1 << 16, 1 << 30).unwrap();
+        assert_eq!(one.passes, 1);
+        // Passes never go below MIN_PASS_STEPS, however many pixels.
+        let huge = plan(&cfg, &cube(), far, false, 1 << 40, 1 << 22).unwrap();
+        assert_eq!(huge.pass_steps as u64, MIN_PASS_STEPS);
     }
 
     #[test]
     fn isosurface_keeps_depth_state() {
         let cfg = RenderConfig { model: Model::Isosurface, ..RenderConfig::default() };
-        assert!(plan(&cfg, &cube(), DVec3::new(3.0, 0.0, 0.0), false).unwrap().per_pixel_state);
+        assert!(plan(&cfg, &cube(), DVec3::new(3.0, 0.0, 0.0), false, 1, ANY).unwrap().per_pixel_state);
     }
 }

@@ -62,26 +62,52 @@ fn tf_variation(frame: &Frame, a: f64, b: f64) -> f64 {
     (0..4).map(|k| hi[k] - lo[k]).fold(0.0, f64::max)
 }
 
-/// Appends the pieces of `[lo, lo + len]` front to back, halving it where
-/// the TF varies too much across the values it spans (see `Frame`).
+/// Most pieces one segment is cut into. Each halving is down to 2^-24 of a
+/// step; this bounds the work a tiny tolerance can ask for (a smooth TF at
+/// tolerance 1e-12 would otherwise cut every segment 2^24 times).
+pub const MAX_PIECES: usize = 1 << 12;
+
+/// Appends the pieces of `[lo, lo + len]` front to back, halving them level
+/// by level where the TF varies too much across the values they span (see
+/// `Frame`), until none does, the pieces are 2^-24 of the segment, or there
+/// are MAX_PIECES of them.
 #[allow(clippy::too_many_arguments)]
-fn split(frame: &Frame, shading: Shading, ray: &Ray, lo: f64, len: f64, vf: f64, vb: f64, depth: u32, out: &mut Vec<(f64, [f64; 3])>) {
-    let vm = value(frame, ray.at(lo + 0.5 * len));
-    let vals = [vf, vm, vb];
-    let finite = vals.iter().all(|v| !v.is_nan());
-    let (a, b) = (vals.iter().cloned().fold(f64::INFINITY, f64::min), vals.iter().cloned().fold(f64::NEG_INFINITY, f64::max));
-    let coarse = !finite
-        || depth >= 24
-        || tf_variation(frame, a, b) * (len / frame.config.reference_step_size) <= frame.adaptive_tolerance;
-    if coarse {
+fn split(frame: &Frame, shading: Shading, ray: &Ray, lo: f64, len: f64, vf: f64, vb: f64, out: &mut Vec<(f64, [f64; 3])>) {
+    // (start, length, front value, back value, midpoint value, final)
+    let mut pieces = vec![(lo, len, vf, vb, value(frame, ray.at(lo + 0.5 * len)), false)];
+    for depth in 0..=24 {
+        let mut next = Vec::with_capacity(pieces.len() * 2);
+        let mut count = pieces.len();
+        let mut refined = false;
+        for &(lo, len, vf, vb, vm, done) in &pieces {
+            let vals = [vf, vm, vb];
+            let finite = vals.iter().all(|v| !v.is_nan());
+            let (a, b) = (vals.iter().cloned().fold(f64::INFINITY, f64::min), vals.iter().cloned().fold(f64::NEG_INFINITY, f64::max));
+            let coarse = done
+                || !finite
+                || depth >= 24
+                || count >= MAX_PIECES
+                || tf_variation(frame, a, b) * (len / frame.config.reference_step_size) <= frame.adaptive_tolerance;
+            if coarse {
+                next.push((lo, len, vf, vb, vm, true));
+                continue;
+            }
+            let half = 0.5 * len;
+            next.push((lo, half, vf, vm, value(frame, ray.at(lo + 0.25 * len)), false));
+            next.push((lo + half, half, vm, vb, value(frame, ray.at(lo + 0.75 * len)), false));
+            count += 1;
+            refined = true;
+        }
+        pieces = next;
+        if !refined {
+            break;
+        }
+    }
+    for (lo, len, _, _, vm, _) in pieces {
         if let Some(p) = midpoint_piece(frame, shading, ray, lo, len, Some(vm)) {
             out.push(p);
         }
-        return;
     }
-    let half = 0.5 * len;
-    split(frame, shading, ray, lo, half, vf, vm, depth + 1, out);
-    split(frame, shading, ray, lo + half, half, vm, vb, depth + 1, out);
 }
 
 /// Segment `i` of an integrating model as pieces (one, unless adaptive):
@@ -110,7 +136,7 @@ fn segment(frame: &Frame, shading: Shading, ray: &Ray, i: u64, out: &mut Vec<(f6
     }
     if frame.adaptive_tolerance > 0.0 {
         let (vf, vb) = (value(frame, ray.at(lo)), value(frame, ray.at(lo + seg)));
-        split(frame, shading, ray, lo, seg, vf, vb, 0, out);
+        split(frame, shading, ray, lo, seg, vf, vb, out);
         return;
     }
     if let Some(p) = midpoint_piece(frame, shading, ray, lo, seg, None) {

@@ -10,6 +10,7 @@
 //! [`crate::model::Model`] reuse the same segments.
 
 use crate::config::RenderConfig;
+use crate::error::{try_vec, Error};
 use crate::model::jitter_shift;
 pub use crate::model::Order;
 use crate::scene::{Camera, Light};
@@ -168,35 +169,75 @@ pub struct Image {
     pub truncated_needed: u64,
 }
 
-pub fn render(frame: &Frame) -> Result<(Vec<[f64; 4]>, u64), crate::error::Error> {
+pub fn render(frame: &Frame) -> Result<(Vec<[f64; 4]>, u64), Error> {
     render_image(frame).map(|im| (im.rgba, im.truncated_needed))
 }
 
-pub fn render_ordered(frame: &Frame, order: Order) -> Result<(Vec<[f64; 4]>, u64), crate::error::Error> {
+pub fn render_ordered(frame: &Frame, order: Order) -> Result<(Vec<[f64; 4]>, u64), Error> {
     let mut f = *frame;
     f.config.order = order;
     render(&f)
 }
 
-pub fn render_image(frame: &Frame) -> Result<Image, crate::error::Error> {
+pub fn render_image(frame: &Frame) -> Result<Image, Error> {
+    render_image_interruptible(frame, &mut || false)
+}
+
+/// `render_image`, asking `stop` about every 50 ms from the calling thread
+/// while worker threads (one per core) take rows in turn; `stop` returning
+/// true ends the frame with `Error::Interrupted` after the rows in progress.
+pub fn render_image_interruptible(frame: &Frame, stop: &mut dyn FnMut() -> bool) -> Result<Image, Error> {
+    use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+    use std::sync::Mutex;
     let basis = frame.camera.basis(frame.width, frame.height)?;
-    let (w, h) = (frame.width, frame.height);
-    let mut out = vec![RayResult::default(); w as usize * h as usize];
-    let threads = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
-    let rows_per = (h as usize).div_ceil(threads).max(1);
+    let (w, h) = (frame.width as usize, frame.height as usize);
+    let pixels = w.checked_mul(h).ok_or_else(|| Error::InvalidInput(format!("image {w}x{h} is too large")))?;
+    let mut out = try_vec(pixels, RayResult::default(), "the float64 image")?;
+    let threads = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1).min(h.max(1));
     let cfg = frame.config;
+    let next_row = AtomicUsize::new(0);
+    let cancelled = AtomicBool::new(false);
+    // Rows are handed out one at a time; each worker writes the rows it takes.
+    let rows: Vec<Mutex<&mut [RayResult]>> = out.chunks_mut(w.max(1)).map(Mutex::new).collect();
+    let (done_tx, done_rx) = std::sync::mpsc::channel::<()>();
     std::thread::scope(|s| {
-        for (chunk, pixels) in out.chunks_mut(rows_per * w as usize).enumerate() {
+        for _ in 0..threads {
+            let done = done_tx.clone();
+            let (rows, next_row, cancelled) = (&rows, &next_row, &cancelled);
             s.spawn(move || {
-                for (idx, px) in pixels.iter_mut().enumerate() {
-                    let row = (chunk * rows_per + idx / w as usize) as u32;
-                    let col = (idx % w as usize) as u32;
-                    let shift = if cfg.jitter { jitter_shift(col, row, cfg.jitter_seed) as f64 } else { 0.0 };
-                    *px = trace(frame, basis.origin, basis.direction(col, row, w, h), shift);
+                loop {
+                    let row = next_row.fetch_add(1, Ordering::Relaxed);
+                    if row >= h || cancelled.load(Ordering::Relaxed) {
+                        break;
+                    }
+                    let mut pixels = rows[row].lock().unwrap_or_else(|p| p.into_inner());
+                    for (col, px) in pixels.iter_mut().enumerate() {
+                        let (col, row) = (col as u32, row as u32);
+                        let shift = if cfg.jitter { jitter_shift(col, row, cfg.jitter_seed) as f64 } else { 0.0 };
+                        *px = trace(frame, basis.origin, basis.direction(col, row, frame.width, frame.height), shift);
+                    }
                 }
+                let _ = done.send(());
             });
         }
+        drop(done_tx);
+        let mut finished = 0;
+        while finished < threads {
+            match done_rx.recv_timeout(std::time::Duration::from_millis(50)) {
+                Ok(()) => finished += 1,
+                Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {
+                    if !cancelled.load(Ordering::Relaxed) && stop() {
+                        cancelled.store(true, Ordering::Relaxed);
+                    }
+                }
+                Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => break,
+            }
+        }
     });
+    drop(rows);
+    if cancelled.load(std::sync::atomic::Ordering::Relaxed) {
+        return Err(Error::Interrupted);
+    }
     Ok(Image {
         rgba: out.iter().map(|r| r.rgba).collect(),
         depth: out.iter().map(|r| r.depth).collect(),

@@ -3,7 +3,8 @@
 
 use crate::config::{OpacityCorrection, Preset, RenderConfig};
 use crate::model::{Model, Order};
-use pyo3::exceptions::{PyUserWarning, PyValueError};
+use pyo3::exceptions::PyUserWarning;
+use super::args::{integer, real, FromArg};
 use super::errors::to_py;
 use pyo3::prelude::*;
 use pyo3::types::PyType;
@@ -48,8 +49,8 @@ pub fn checked(py: Python<'_>, c: &RenderConfig) -> PyResult<()> {
 }
 
 /// A jitter seed must fit the shader's 32-bit hash.
-fn seed(v: i64) -> PyResult<u32> {
-    u32::try_from(v).map_err(|_| PyValueError::new_err(format!("jitter_seed must be in [0, 2**32 - 1], got {v}")))
+fn seed(v: &Bound<'_, PyAny>) -> PyResult<u32> {
+    integer("jitter_seed", v, 0, u32::MAX as i128).map(|n| n as u32)
 }
 
 fn preset(cls: &Bound<'_, PyType>, p: Preset) -> PyResult<Py<PyAny>> {
@@ -76,8 +77,9 @@ macro_rules! render_config_methods {
                     self.inner.$p
                 }
                 #[setter]
-                fn $pset(&mut self, v: $pty) {
-                    self.inner.$p = v;
+                fn $pset(&mut self, v: &Bound<'_, PyAny>) -> PyResult<()> {
+                    self.inner.$p = <$pty as FromArg>::from_arg(stringify!($p), v)?;
+                    Ok(())
                 }
             )*
             $(
@@ -126,39 +128,43 @@ render_config_methods! {
     }
 
     #[new]
-    #[pyo3(signature = (step_size=0.01, max_steps=500, early_ray_termination=true, opacity_threshold=0.95, reference_step_size=0.01, opacity_correction="exponential", *, model="emission_absorption", iso_value=0.5, anisotropy=0.0, shadow_step_size=0.0, jitter=false, jitter_seed=0, pre_integrated=false, order="front_to_back"))]
+    #[pyo3(signature = (step_size=None, max_steps=None, early_ray_termination=None, opacity_threshold=None, reference_step_size=None, opacity_correction="exponential", *, model="emission_absorption", iso_value=None, anisotropy=None, shadow_step_size=None, jitter=None, jitter_seed=None, pre_integrated=None, order="front_to_back"))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
-        step_size: f64,
-        max_steps: i64,
-        early_ray_termination: bool,
-        opacity_threshold: f64,
-        reference_step_size: f64,
+        step_size: Option<&Bound<'_, PyAny>>,
+        max_steps: Option<&Bound<'_, PyAny>>,
+        early_ray_termination: Option<&Bound<'_, PyAny>>,
+        opacity_threshold: Option<&Bound<'_, PyAny>>,
+        reference_step_size: Option<&Bound<'_, PyAny>>,
         opacity_correction: &str,
         model: &str,
-        iso_value: f64,
-        anisotropy: f64,
-        shadow_step_size: f64,
-        jitter: bool,
-        jitter_seed: i64,
-        pre_integrated: bool,
+        iso_value: Option<&Bound<'_, PyAny>>,
+        anisotropy: Option<&Bound<'_, PyAny>>,
+        shadow_step_size: Option<&Bound<'_, PyAny>>,
+        jitter: Option<&Bound<'_, PyAny>>,
+        jitter_seed: Option<&Bound<'_, PyAny>>,
+        pre_integrated: Option<&Bound<'_, PyAny>>,
         order: &str,
     ) -> PyResult<Self> {
+        let d = RenderConfig::default();
+        fn arg<T: FromArg>(name: &str, v: Option<&Bound<'_, PyAny>>, default: T) -> PyResult<T> {
+            v.map_or(Ok(default), |v| T::from_arg(name, v))
+        }
         let inner = RenderConfig {
-            step_size,
-            max_steps,
-            early_ray_termination,
-            opacity_threshold,
-            reference_step_size,
+            step_size: arg("step_size", step_size, d.step_size)?,
+            max_steps: arg("max_steps", max_steps, d.max_steps)?,
+            early_ray_termination: arg("early_ray_termination", early_ray_termination, d.early_ray_termination)?,
+            opacity_threshold: arg("opacity_threshold", opacity_threshold, d.opacity_threshold)?,
+            reference_step_size: arg("reference_step_size", reference_step_size, d.reference_step_size)?,
             opacity_correction: OpacityCorrection::parse(opacity_correction).map_err(to_py)?,
             model: Model::parse(model).map_err(to_py)?,
-            iso_value,
-            anisotropy,
-            shadow_step_size,
-            jitter,
-            jitter_seed: seed(jitter_seed)?,
-            pre_integrated,
+            iso_value: arg("iso_value", iso_value, d.iso_value)?,
+            anisotropy: arg("anisotropy", anisotropy, d.anisotropy)?,
+            shadow_step_size: arg("shadow_step_size", shadow_step_size, d.shadow_step_size)?,
+            jitter: arg("jitter", jitter, d.jitter)?,
+            jitter_seed: jitter_seed.map_or(Ok(d.jitter_seed), seed)?,
+            pre_integrated: arg("pre_integrated", pre_integrated, d.pre_integrated)?,
             order: Order::parse(order).map_err(to_py)?,
         };
         checked(py, &inner)?;
@@ -170,7 +176,7 @@ render_config_methods! {
         self.inner.jitter_seed
     }
     #[setter]
-    fn set_jitter_seed(&mut self, v: i64) -> PyResult<()> {
+    fn set_jitter_seed(&mut self, v: &Bound<'_, PyAny>) -> PyResult<()> {
         self.inner.jitter_seed = seed(v)?;
         Ok(())
     }
@@ -224,13 +230,13 @@ render_config_methods! {
         preset(cls, Preset::UltraQuality)
     }
     #[classmethod]
-    #[pyo3(signature = (step_size, max_steps, early_ray_termination=true, opacity_threshold=0.95))]
+    #[pyo3(signature = (step_size, max_steps, early_ray_termination=None, opacity_threshold=None))]
     fn custom(
         cls: &Bound<'_, PyType>,
-        step_size: f64,
-        max_steps: i64,
-        early_ray_termination: bool,
-        opacity_threshold: f64,
+        step_size: &Bound<'_, PyAny>,
+        max_steps: &Bound<'_, PyAny>,
+        early_ray_termination: Option<&Bound<'_, PyAny>>,
+        opacity_threshold: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Py<PyAny>> {
         Ok(cls
             .call1((step_size, max_steps, early_ray_termination, opacity_threshold))?
@@ -277,16 +283,16 @@ render_config_methods! {
         Ok(())
     }
 
-    fn with_step_size(&self, py: Python<'_>, step_size: f64) -> PyResult<PyRenderConfig> {
+    fn with_step_size(&self, py: Python<'_>, step_size: &Bound<'_, PyAny>) -> PyResult<PyRenderConfig> {
         let mut c = self.clone();
-        c.inner.step_size = step_size;
+        c.inner.step_size = real("step_size", step_size)?;
         checked(py, &c.inner)?;
         Ok(c)
     }
 
-    fn with_max_steps(&self, py: Python<'_>, max_steps: i64) -> PyResult<PyRenderConfig> {
+    fn with_max_steps(&self, py: Python<'_>, max_steps: &Bound<'_, PyAny>) -> PyResult<PyRenderConfig> {
         let mut c = self.clone();
-        c.inner.max_steps = max_steps;
+        c.inner.max_steps = i64::from_arg("max_steps", max_steps)?;
         checked(py, &c.inner)?;
         Ok(c)
     }

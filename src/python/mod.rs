@@ -1,5 +1,6 @@
 //! The PyO3 module `pyvr._core`: the only place pyo3 is used.
 
+mod args;
 mod config;
 mod errors;
 mod renderer;

@@ -5,7 +5,8 @@
 
 use super::config::PyRenderConfig;
 use crate::quantize::to_u8;
-use super::errors::{to_py, to_py_in};
+use super::args::integer;
+use super::errors::{guarded, run_released, to_py, to_py_in};
 use crate::gpu::GpuRenderer;
 use crate::integrate::{self, Frame};
 use crate::scene::{Bounds, Camera, Light, LightKind};
@@ -135,19 +136,39 @@ fn lut_rows(lut: &PyReadonlyArray2<'_, f32>) -> PyResult<Vec<[f32; 4]>> {
 
 #[pyclass(name = "Renderer", module = "pyvr._core")]
 pub struct PyRenderer {
-    inner: GpuRenderer,
+    /// Dropped only in the process that made it (see Drop).
+    inner: std::mem::ManuallyDrop<GpuRenderer>,
+}
+
+impl Drop for PyRenderer {
+    fn drop(&mut self) {
+        // In a child made by fork() the GPU objects are the parent's: freeing
+        // them would call a driver whose threads stayed in the parent. Leak.
+        if !self.inner.is_foreign() {
+            // SAFETY: `inner` is never used after this.
+            unsafe { std::mem::ManuallyDrop::drop(&mut self.inner) }
+        }
+    }
+}
+
+/// An image side: an integer from 1 to 2^32 - 1 (the device's own limit is
+/// checked when the buffers are made).
+fn side(name: &str, v: &Bound<'_, PyAny>) -> PyResult<u32> {
+    integer(name, v, 1, u32::MAX as i128).map(|n| n as u32)
 }
 
 #[pymethods]
 impl PyRenderer {
     #[new]
-    fn new(py: Python<'_>, width: u32, height: u32) -> PyResult<Self> {
-        let inner = py.detach(|| GpuRenderer::new(width, height)).map_err(to_py)?;
-        Ok(PyRenderer { inner })
+    fn new(py: Python<'_>, width: &Bound<'_, PyAny>, height: &Bound<'_, PyAny>) -> PyResult<Self> {
+        let (width, height) = (side("width", width)?, side("height", height)?);
+        let inner = run_released(py, |_| GpuRenderer::new(width, height))?;
+        Ok(PyRenderer { inner: std::mem::ManuallyDrop::new(inner) })
     }
 
-    fn resize(&mut self, width: u32, height: u32) -> PyResult<()> {
-        self.inner.resize(width, height).map_err(to_py)
+    fn resize(&mut self, width: &Bound<'_, PyAny>, height: &Bound<'_, PyAny>) -> PyResult<()> {
+        let (width, height) = (side("width", width)?, side("height", height)?);
+        guarded(|| self.inner.resize(width, height).map_err(to_py))
     }
 
     #[getter]
@@ -173,16 +194,16 @@ impl PyRenderer {
         precision: &str,
     ) -> PyResult<()> {
         let precision = Precision::parse(precision).map_err(to_py)?;
-        let inner = &mut self.inner;
+        let inner = &mut *self.inner;
         with_volume(data, &normals, min_bounds, max_bounds, |view| {
-            py.detach(|| inner.set_volume_with_precision(&view, precision)).map_err(to_py)
+            run_released(py, |_| inner.set_volume_with_precision(&view, precision))
         })
     }
 
     /// Uploads an (M, 4) float32 RGBA table, entries at scalars m / (M - 1).
     fn set_lut(&mut self, lut: PyReadonlyArray2<'_, f32>) -> PyResult<()> {
         let rows = lut_rows(&lut)?;
-        self.inner.set_lut(&rows).map_err(to_py)
+        guarded(|| self.inner.set_lut(&rows).map_err(to_py))
     }
 
     /// Sampled value -> table domain: `tf = sample * scale + offset`.
@@ -212,8 +233,8 @@ impl PyRenderer {
         let light = light_from(&light)?;
         let cfg = config.inner;
         let (w, h) = self.inner.size();
-        let inner = &mut self.inner;
-        let (img, stats) = py.detach(|| inner.render(&camera, &light, &cfg)).map_err(to_py)?;
+        let inner = &mut *self.inner;
+        let (img, stats) = run_released(py, |stop| inner.render_interruptible(&camera, &light, &cfg, stop))?;
         let arr = PyArray1::from_vec(py, img).reshape([h as usize, w as usize, 4])?;
         let d = PyDict::new(py);
         d.set_item("truncated_needed", stats.truncated_needed)?;
@@ -259,8 +280,8 @@ impl PyRenderer {
     /// used the isosurface model.
     fn depth<'py>(&mut self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyArray2<f32>>>> {
         let (w, h) = self.inner.size();
-        let inner = &mut self.inner;
-        match py.detach(|| inner.depth()).map_err(to_py)? {
+        let inner = &mut *self.inner;
+        match run_released(py, |_| inner.depth())? {
             None => Ok(None),
             Some(d) => Ok(Some(PyArray1::from_vec(py, d).reshape([h as usize, w as usize])?)),
         }
@@ -327,7 +348,7 @@ pub fn integrate_reference<'py>(
     let light = light_from(&light)?;
     let img = with_volume(data, &normals, min_bounds, max_bounds, |volume| {
         let frame = Frame { volume, lut: &rows, camera, light, config: cfg, width, height, adaptive_tolerance, value_map, clip };
-        py.detach(|| integrate::render_image(&frame)).map_err(to_py)
+        run_released(py, |stop| integrate::render_image_interruptible(&frame, stop))
     })?;
     let flat: Vec<f64> = img.rgba.into_iter().flatten().collect();
     let shape = [height as usize, width as usize];

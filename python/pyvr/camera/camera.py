@@ -10,7 +10,7 @@ import numpy as np
 from .._numbers import is_number, is_vec3
 
 
-class CameraError(Exception):
+class CameraError(ValueError):
     """Invalid camera angles (raised by ``validate_camera_angles``)."""
 
 

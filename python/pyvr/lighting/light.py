@@ -5,10 +5,10 @@ from typing import Optional
 
 import numpy as np
 
-from .._numbers import is_number, is_vec3
+from .._numbers import finite_vec3, is_number
 
 
-class LightError(Exception):
+class LightError(ValueError):
     """Kept for compatibility with pyvr 0.4.1 (never raised)."""
 
 
@@ -37,10 +37,8 @@ class Light:
         self.validate()
 
     def validate(self) -> None:
-        if not is_vec3(self.position):
-            raise ValueError("position must be a 3D numpy array")
-        if not is_vec3(self.target):
-            raise ValueError("target must be a 3D numpy array")
+        finite_vec3("position", self.position)
+        finite_vec3("target", self.target)
         if not is_number(self.ambient_intensity) or not (0.0 <= self.ambient_intensity <= 1.0):
             raise ValueError("ambient_intensity must be between 0.0 and 1.0")
         if not is_number(self.diffuse_intensity) or not (0.0 <= self.diffuse_intensity <= 1.0):
@@ -55,7 +53,9 @@ class Light:
     def directional(cls, direction, ambient: float = 0.2, diffuse: float = 0.8, distance: float = 10.0) -> "Light":
         d = _f32(direction)
         n = np.linalg.norm(d)
-        d = d / n if n > 0 else d * np.float32(np.nan)
+        if not (np.isfinite(n) and n > 0):
+            raise ValueError(f"direction must be a non-zero vector of finite numbers, got {direction!r}")
+        d = d / n
         return cls(position=-d * np.float32(distance), target=_f32([0, 0, 0]), ambient_intensity=ambient, diffuse_intensity=diffuse)
 
     @classmethod

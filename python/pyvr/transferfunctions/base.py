@@ -5,10 +5,14 @@ from typing import List, Optional, Tuple
 
 import numpy as np
 
-from .._numbers import is_number
+from .._numbers import check_count, is_number
+
+#: Largest table a transfer function tabulates (entries). A renderer's own
+#: limit (its device's texture width) may be lower; it says so on use.
+MAX_LUT_SIZE = 1 << 20
 
 
-class TransferFunctionError(Exception):
+class TransferFunctionError(ValueError):
     """Base error for transfer functions."""
 
 
@@ -27,10 +31,19 @@ class BaseTransferFunction(ABC):
     def __init__(self, control_points: Optional[List[Tuple]] = None, lut_size: int = 256, *, value_range=None):
         if control_points is None:
             control_points = self._get_default_control_points()
-        self.control_points = sorted(control_points, key=lambda p: p[0])
+        self.control_points = sorted(_as_points(control_points), key=lambda p: p[0])
         self.lut_size = lut_size
         self.value_range = value_range
         self._validate_control_points()
+
+    @property
+    def lut_size(self) -> int:
+        """Entries in the table ``to_lut()`` makes by default (1 to MAX_LUT_SIZE)."""
+        return self._lut_size
+
+    @lut_size.setter
+    def lut_size(self, n) -> None:
+        self._lut_size = check_count("lut_size", n, high=MAX_LUT_SIZE)
 
     @property
     def value_range(self) -> Optional[Tuple[float, float]]:
@@ -75,7 +88,7 @@ class BaseTransferFunction(ABC):
 
     def _table(self, size: Optional[int]) -> np.ndarray:
         """Values at ``linspace(0, 1, n)`` with numpy.interp rules, as (n, C) float32."""
-        n = size or self.lut_size
+        n = self.lut_size if size is None else check_count("size", size, high=MAX_LUT_SIZE)
         scalars = np.ascontiguousarray(self._get_scalar_values(), dtype=np.float64)
         values = np.asarray(self._get_mapped_values(), dtype=np.float64)
         values = values.reshape(len(scalars), -1)
@@ -88,6 +101,26 @@ class BaseTransferFunction(ABC):
         values = np.asarray(self._get_mapped_values(), dtype=np.float64).reshape(len(scalars), -1)
         cols = [np.interp(x, scalars, values[:, c]) for c in range(values.shape[1])]
         return np.stack(cols, axis=-1).astype(np.float32)
+
+
+def _as_points(control_points):
+    """Control points as a list of (scalar, value): an (N, 2) or (N, 4)
+    numpy array becomes rows (s, o) or (s, (r, g, b)), with numpy scalars."""
+    if isinstance(control_points, np.ndarray):
+        a = control_points
+        if a.ndim != 2 or a.shape[1] not in (2, 4) or not np.issubdtype(a.dtype, np.number) \
+                or np.issubdtype(a.dtype, np.complexfloating):
+            raise InvalidControlPointError(
+                f"control points as an array must be real numbers of shape (N, 2) (scalar, opacity) or "
+                f"(N, 4) (scalar, r, g, b), got shape {a.shape} and dtype {a.dtype}"
+            )
+        a = a.astype(np.float64)
+        return [(r[0], r[1]) if a.shape[1] == 2 else (r[0], tuple(r[1:])) for r in a]
+    try:
+        points = list(control_points)
+    except TypeError:
+        raise InvalidControlPointError(f"control points must be a sequence of (scalar, value) pairs, got {control_points!r}") from None
+    return [tuple(p) if isinstance(p, np.ndarray) and p.ndim == 1 and len(p) == 2 else p for p in points]
 
 
 def validate_control_points_format(control_points, expected_value_length: int) -> None:

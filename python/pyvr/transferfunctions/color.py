@@ -5,7 +5,8 @@ from typing import List, Optional, Tuple
 import numpy as np
 
 from .._core import colormap_table
-from .base import BaseTransferFunction, InvalidControlPointError, validate_control_points_format
+from .._numbers import check_count
+from .base import MAX_LUT_SIZE, BaseTransferFunction, InvalidControlPointError, validate_control_points_format
 
 RGB = Tuple[float, float, float]
 
@@ -49,7 +50,7 @@ class ColorTransferFunction(BaseTransferFunction):
         pyvr's built-in tables (viridis, plasma, inferno, magma, cividis,
         gray, bone, copper, hot, cool, turbo, jet, coolwarm, Greys) serve.
         """
-        x = np.linspace(0.0, 1.0, lut_size)
+        x = np.linspace(0.0, 1.0, check_count("lut_size", lut_size, high=MAX_LUT_SIZE))
         colors = _sample_colormap(colormap_name, x)
         vmin, vmax = value_range
         x_mapped = vmin + x * (vmax - vmin)

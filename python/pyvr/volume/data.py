@@ -5,8 +5,10 @@ from typing import Optional, Tuple
 
 import numpy as np
 
+from .._numbers import finite_vec3
 
-class VolumeError(Exception):
+
+class VolumeError(ValueError):
     """Kept for compatibility with pyvr 0.4.1 (never raised)."""
 
 
@@ -48,15 +50,18 @@ class Volume:
             raise ValueError("Volume data must be a numpy array")
         if self.data.ndim != 3:
             raise ValueError(f"Volume data must be 3D, got shape {self.data.shape}")
+        if (not np.issubdtype(self.data.dtype, np.number) and self.data.dtype != np.bool_) \
+                or np.issubdtype(self.data.dtype, np.complexfloating):
+            raise TypeError(f"Volume data must be a real numeric array, got dtype {self.data.dtype}")
         if self.normals is not None:
             if not isinstance(self.normals, np.ndarray):
                 raise ValueError("Normal volume must be a numpy array")
+            if not np.issubdtype(self.normals.dtype, np.number) or np.issubdtype(self.normals.dtype, np.complexfloating):
+                raise TypeError(f"normals must be a real numeric array, got dtype {self.normals.dtype}")
             if self.normals.shape != self.data.shape + (3,):
                 raise ValueError(f"Normal volume must have shape {self.data.shape + (3,)}, got {self.normals.shape}")
-        if not (isinstance(self.min_bounds, np.ndarray) and self.min_bounds.shape == (3,)):
-            raise ValueError("min_bounds must be a 3D numpy array")
-        if not (isinstance(self.max_bounds, np.ndarray) and self.max_bounds.shape == (3,)):
-            raise ValueError("max_bounds must be a 3D numpy array")
+        finite_vec3("min_bounds", self.min_bounds)
+        finite_vec3("max_bounds", self.max_bounds)
         if np.any(self.max_bounds <= self.min_bounds):
             raise ValueError("max_bounds must be greater than min_bounds")
         if self.value_range is not None:

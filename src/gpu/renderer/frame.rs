@@ -3,8 +3,8 @@
 use super::{FrameStats, GpuRenderer, SKIP_MIN_EMPTY, STATS_BYTES};
 use crate::config::RenderConfig;
 use crate::gpu::bindings;
-use crate::error::Error;
-use crate::gpu::params::{FrameInputs, Params};
+use crate::error::{try_vec, Error};
+use crate::gpu::params::{world_unit, FrameInputs, Params};
 use crate::gpu::pipeline::{Layout, Variant, WORKGROUP};
 use crate::gpu::plan::{plan, PassPlan};
 use crate::gpu::readback::read_buffers;
@@ -22,6 +22,22 @@ impl GpuRenderer {
         cfg: &RenderConfig,
         out: &mut [f32],
     ) -> Result<FrameStats, Error> {
+        self.render_into_interruptible(camera, light, cfg, out, &mut || false)
+    }
+
+    /// `render_into`, asking `stop` between the passes of a long frame
+    /// (passes are sized to about PASS_SECONDS each at this device's
+    /// measured speed); `stop` returning true ends the frame with
+    /// `Error::Interrupted` once the pass in flight is done.
+    pub fn render_into_interruptible(
+        &mut self,
+        camera: &Camera,
+        light: &Light,
+        cfg: &RenderConfig,
+        out: &mut [f32],
+        stop: &mut dyn FnMut() -> bool,
+    ) -> Result<FrameStats, Error> {
+        self.check_process()?;
         let n = self.width as usize * self.height as usize * 4;
         if out.len() != n {
             return Err(Error::InvalidInput(format!("output slice has {} floats, expected {n}", out.len())));
@@ -41,7 +57,8 @@ impl GpuRenderer {
         }
         let (variant, passes) = self.prepare(camera, light, cfg)?;
         self.bind(variant.layout.hw_filter)?;
-        self.dispatch(variant, params, passes)?;
+        let started = std::time::Instant::now();
+        self.dispatch(variant, params, passes, stop)?;
         let (truncated_needed, samples) = read_buffers(
             &self.ctx,
             &[&self.frame.output.readback, &self.frame.stats_readback],
@@ -53,6 +70,8 @@ impl GpuRenderer {
             },
         )?;
         self.depth_ready = cfg.model == Model::Isosurface;
+        self.depth_unit = world_unit(&self.volume.as_ref().expect("checked by check_ready").bounds);
+        self.measure_speed(samples, started.elapsed());
         let uniforms = passes.passes as u64 * std::mem::size_of::<Params>() as u64 + STATS_BYTES;
         let stats = FrameStats { truncated_needed, uploaded_bytes: 0, passes: passes.passes, samples };
         Ok(self.finish_frame(stats, uniforms))
@@ -104,8 +123,8 @@ impl GpuRenderer {
         let skip = self.skip_empty && self.occupancy.empty_fraction >= SKIP_MIN_EMPTY;
         let variant = Variant::new(shading, light.kind, cfg, layout, skip);
         let shadow_rays = cfg.model == Model::SingleScattering && variant.shading != Shading::AmbientOnly;
-        let passes = plan(cfg, &vol.bounds, camera.position, shadow_rays)?;
         let pixels = self.width as u64 * self.height as u64;
+        let passes = plan(cfg, &vol.bounds, camera.position, shadow_rays, pixels, self.pass_samples())?;
         if passes.per_pixel_state && self.frame.ray_state.pixels < pixels {
             let limit = self.ctx.max_storage_bytes();
             if pixels * 16 > limit {
@@ -179,13 +198,14 @@ impl GpuRenderer {
 
     /// Submits the frame's passes; the last copies the image and statistics
     /// to their readback buffers.
-    fn dispatch(&self, variant: Variant, params: Params, plan: PassPlan) -> Result<(), Error> {
+    fn dispatch(&self, variant: Variant, params: Params, plan: PassPlan, stop: &mut dyn FnMut() -> bool) -> Result<(), Error> {
         let pipeline = self.pipelines.get(&self.ctx, variant)?;
         let (bind_group, _) = self.bind_group.as_ref().expect("bound before dispatch");
         let f = &self.frame;
         let ctx = &self.ctx;
         ctx.queue.write_buffer(&f.stats, 0, &[0u8; STATS_BYTES as usize]);
         let image_bytes = self.width as u64 * self.height as u64 * 16;
+        let mut in_flight = None;
         for pass in 0..plan.passes {
             let p = Params {
                 pass_start: pass * plan.pass_steps,
@@ -196,7 +216,7 @@ impl GpuRenderer {
             };
             // Writes before a submit are ordered with it: each pass sees its own.
             ctx.queue.write_buffer(&f.uniform, 0, bytemuck::bytes_of(&p));
-            ctx.scoped("rendering", || {
+            let submitted = ctx.scoped("rendering", || {
                 let mut enc = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
                 {
                     let mut cpass =
@@ -209,8 +229,18 @@ impl GpuRenderer {
                     enc.copy_buffer_to_buffer(&f.output.storage, 0, &f.output.readback, 0, image_bytes);
                     enc.copy_buffer_to_buffer(&f.stats, 0, &f.stats_readback, 0, STATS_BYTES);
                 }
-                ctx.queue.submit([enc.finish()]);
+                ctx.queue.submit([enc.finish()])
             })?;
+            // One pass stays queued while the one before finishes: the GPU
+            // keeps busy, and the caller is asked about stopping every pass.
+            if let Some(previous) = in_flight.replace(submitted) {
+                ctx.device
+                    .poll(wgpu::PollType::Wait { submission_index: Some(previous), timeout: None })
+                    .map_err(|e| Error::Gpu(format!("waiting for the GPU failed: {e}")))?;
+                if stop() {
+                    return Err(Error::Interrupted);
+                }
+            }
         }
         Ok(())
     }
@@ -220,9 +250,11 @@ impl GpuRenderer {
     /// where a ray found no surface. `None` unless the last frame was an
     /// isosurface.
     pub fn depth(&mut self) -> Result<Option<Vec<f32>>, Error> {
+        self.check_process()?;
         if !self.depth_ready {
             return Ok(None);
         }
+        let unit = self.depth_unit as f32;
         let bytes = self.width as u64 * self.height as u64 * 16;
         let ctx = &self.ctx;
         let staging = ctx.scoped("reading the depth image", || readback_buffer(&ctx.device, "depth readback", bytes))?;
@@ -231,13 +263,25 @@ impl GpuRenderer {
         ctx.queue.submit([enc.finish()]);
         read_buffers(ctx, &[&staging], "the depth", |data| {
             let v: &[[f32; 4]] = bytemuck::cast_slice(data[0]);
-            Some(v.iter().map(|s| s[0]).collect())
+            // The shader measures in units of the box's longest side.
+            Some(v.iter().map(|s| s[0] * unit).collect())
         })
     }
 
     pub fn render(&mut self, camera: &Camera, light: &Light, cfg: &RenderConfig) -> Result<(Vec<f32>, FrameStats), Error> {
-        let mut out = vec![0.0f32; self.width as usize * self.height as usize * 4];
-        let stats = self.render_into(camera, light, cfg, &mut out)?;
+        self.render_interruptible(camera, light, cfg, &mut || false)
+    }
+
+    /// `render`, asking `stop` between passes (see `render_into_interruptible`).
+    pub fn render_interruptible(
+        &mut self,
+        camera: &Camera,
+        light: &Light,
+        cfg: &RenderConfig,
+        stop: &mut dyn FnMut() -> bool,
+    ) -> Result<(Vec<f32>, FrameStats), Error> {
+        let mut out = try_vec(self.width as usize * self.height as usize * 4, 0.0f32, "the image")?;
+        let stats = self.render_into_interruptible(camera, light, cfg, &mut out, stop)?;
         Ok((out, stats))
     }
 }

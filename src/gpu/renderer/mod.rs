@@ -3,7 +3,7 @@
 //! their input changes: a camera, light or config change rewrites one
 //! 256-byte uniform block and nothing else.
 
-use super::context::GpuContext;
+use super::context::{GpuContext, ProcessSlot};
 use crate::error::Error;
 use super::params::Params;
 use super::pipeline::{Pipelines, WORKGROUP};
@@ -11,13 +11,20 @@ use super::resources::{readback_buffer, Fixed, OccSource, Occupancy, Output, Ray
 use crate::scene::Bounds;
 use crate::transfer::ValueMap;
 use crate::volume::{Precision, VolumeView};
-use std::sync::{Arc, OnceLock};
+use std::sync::Arc;
 
 /// Leaping over empty cells makes every sample's loop heavier: it pays only
 /// when enough of the volume is empty. Measured on lavapipe (benchmark scene,
 /// 512^2, step 0.1): with 18.7% of cells empty, the leaps removed 3% of the
 /// samples and made the frame 25% slower.
 const SKIP_MIN_EMPTY: f64 = 0.25;
+
+/// Seconds one pass of a long frame should take: how long a Ctrl-C waits.
+const PASS_SECONDS: f64 = 0.25;
+
+/// Samples per second assumed before a frame has been timed (lavapipe on
+/// two cores renders 4-8e7; GPUs are faster and soon measured).
+const INITIAL_SAMPLES_PER_SECOND: f64 = 4e7;
 
 /// Bytes of the frame statistics: the largest step count a truncated ray
 /// needed, and the samples taken (two words).
@@ -78,16 +85,22 @@ pub struct GpuRenderer {
     bind_group: Option<(wgpu::BindGroup, bool)>,
     /// The last frame was an isosurface: its depth is in the ray state.
     depth_ready: bool,
+    /// World length of the shader's length unit in that frame.
+    depth_unit: f64,
+    /// Samples per second the last long frame took: sizes passes for time.
+    samples_per_second: f64,
+    /// The process that made the device objects (see `check_process`).
+    pid: u32,
     pending_upload: u64,
     pub counters: Counters,
 }
 
 mod frame;
 
-static PIPELINES: OnceLock<Result<Arc<Pipelines>, Error>> = OnceLock::new();
+static PIPELINES: ProcessSlot<Result<Arc<Pipelines>, Error>> = ProcessSlot::new();
 
 fn shared_pipelines(ctx: &GpuContext) -> Result<Arc<Pipelines>, Error> {
-    PIPELINES.get_or_init(|| Pipelines::new(ctx).map(Arc::new)).clone()
+    PIPELINES.get_or_make(|| Pipelines::new(ctx).map(Arc::new))
 }
 
 fn buffer(device: &wgpu::Device, label: &str, size: u64, usage: wgpu::BufferUsages) -> wgpu::Buffer {
@@ -131,9 +144,45 @@ impl GpuRenderer {
             shader_filtering: false,
             bind_group: None,
             depth_ready: false,
+            depth_unit: 1.0,
+            samples_per_second: INITIAL_SAMPLES_PER_SECOND,
+            pid: std::process::id(),
             pending_upload: 0,
             counters: Counters::default(),
         })
+    }
+
+    /// The renderer's GPU objects belong to the process that made them: in
+    /// a child made by fork() they are copies whose driver threads did not
+    /// survive, and using them would wait forever.
+    pub fn check_process(&self) -> Result<(), Error> {
+        if std::process::id() == self.pid {
+            return Ok(());
+        }
+        Err(Error::Gpu(
+            "this renderer was created in the parent of a fork(), and its GPU device cannot be used in the \
+             child: create the renderer in the child (pyvr.VolumeRenderer does this by itself), or start \
+             worker processes with the 'spawn' or 'forkserver' method of multiprocessing"
+                .into(),
+        ))
+    }
+
+    /// True when the renderer was made in another process (before a fork).
+    pub fn is_foreign(&self) -> bool {
+        std::process::id() != self.pid
+    }
+
+    /// Samples one pass of a long frame may take (about PASS_SECONDS).
+    fn pass_samples(&self) -> u64 {
+        (self.samples_per_second * PASS_SECONDS).clamp(1e6, 1e13) as u64
+    }
+
+    /// Keeps the device's speed from frames long enough to time.
+    fn measure_speed(&mut self, samples: u64, elapsed: std::time::Duration) {
+        let secs = elapsed.as_secs_f64();
+        if samples >= 1 << 20 && secs > 0.01 {
+            self.samples_per_second = samples as f64 / secs;
+        }
     }
 
     pub fn context(&self) -> &GpuContext {
@@ -183,6 +232,7 @@ impl GpuRenderer {
     }
 
     pub fn resize(&mut self, width: u32, height: u32) -> Result<(), Error> {
+        self.check_process()?;
         Self::check_size(&self.ctx, width, height)?;
         if (width, height) == (self.width, self.height) {
             return Ok(());
@@ -202,6 +252,7 @@ impl GpuRenderer {
 
     /// Uploads a volume, storing float data at `precision`.
     pub fn set_volume_with_precision(&mut self, vol: &VolumeView, precision: Precision) -> Result<(), Error> {
+        self.check_process()?;
         let volume = VolumeGpu::upload(&self.ctx, vol, precision)?;
         let total = volume.bytes;
         self.volume = Some(volume);
@@ -217,6 +268,7 @@ impl GpuRenderer {
 
     /// Uploads an RGBA lookup table (entries at scalars `m / (M - 1)`).
     pub fn set_lut(&mut self, lut: &[[f32; 4]]) -> Result<(), Error> {
+        self.check_process()?;
         let bytes = self.tables.upload_lut(&self.ctx, lut)?;
         self.bind_group = None;
         if self.volume.is_some() {
