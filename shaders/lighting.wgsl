@@ -5,12 +5,7 @@
 // light (3e38 for a directional one); w < 0 where the direction is undefined.
 fn light_travel(p: vec3<f32>) -> vec4<f32> {
     if (POINT_LIGHT) {
-        let v = p - P.light_pos.xyz;
-        let dl = length(v);
-        if (!(dl > 0.0)) {
-            return vec4<f32>(0.0, 0.0, 0.0, -1.0);
-        }
-        return vec4<f32>(v / dl, dl);
+        return direction_and_length(p - P.light_pos.xyz);
     }
     if (P.light_valid == 0u) {
         return vec4<f32>(0.0, 0.0, 0.0, -1.0);
@@ -19,12 +14,12 @@ fn light_travel(p: vec3<f32>) -> vec4<f32> {
 }
 
 fn light_intensity(n: vec3<f32>, p: vec3<f32>) -> f32 {
-    let ln = length(n);
+    let nd = direction_and_length(n);
     let l = light_travel(p);
-    if (!(ln > 0.0) || l.w < 0.0) {
+    if (nd.w < 0.0 || l.w < 0.0) {
         return P.ambient;
     }
-    return P.ambient + P.diffuse * max(dot(n / ln, l.xyz), 0.0);
+    return P.ambient + P.diffuse * max(dot(nd.xyz, l.xyz), 0.0);
 }
 
 // 4π p(cos θ) of Henyey–Greenstein (1 when g = 0: isotropic).

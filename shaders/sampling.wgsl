@@ -60,13 +60,37 @@ fn supplied_normal(tc: vec3<f32>) -> vec3<f32> {
     return textureSampleLevel(normals, linear_sampler, tc, 0.0).xyz;
 }
 
-// Central differences one voxel apart, in world units; texture axes are (z, y, x).
+// The direction of central differences one voxel apart, per world unit;
+// texture axes are (z, y, x). Zero (no diffuse light) where a neighbour is
+// NaN, as in the f64 integrator. Only the direction is used, so the
+// differences are first scaled into [-1, 1]: values near f32's range (fill
+// values such as 1e20 or 9.97e36, infinities stored as f32::MAX / 16) would
+// otherwise overflow the spacing factor or the length.
 fn gradient(tc: vec3<f32>) -> vec3<f32> {
     let h = 1.0 / vec3<f32>(textureDimensions(volume));
     let gx = raw_value_at(tc + vec3<f32>(0.0, 0.0, h.z)) - raw_value_at(tc - vec3<f32>(0.0, 0.0, h.z));
     let gy = raw_value_at(tc + vec3<f32>(0.0, h.y, 0.0)) - raw_value_at(tc - vec3<f32>(0.0, h.y, 0.0));
     let gz = raw_value_at(tc + vec3<f32>(h.x, 0.0, 0.0)) - raw_value_at(tc - vec3<f32>(h.x, 0.0, 0.0));
-    return vec3<f32>(gx, gy, gz) * P.inv_two_spacing.xyz;
+    if (is_nan(gx) || is_nan(gy) || is_nan(gz)) {
+        return vec3<f32>(0.0);
+    }
+    let m = max(max(abs(gx), abs(gy)), abs(gz));
+    if (!(m > 0.0)) {
+        return vec3<f32>(0.0);
+    }
+    return (vec3<f32>(gx, gy, gz) / m) * P.inv_two_spacing.xyz;
+}
+
+// v's unit direction and its length (w), or w < 0 for a zero vector; scaled
+// first so that lengths beyond sqrt(f32::MAX) do not overflow.
+fn direction_and_length(v: vec3<f32>) -> vec4<f32> {
+    let m = max(max(abs(v.x), abs(v.y)), abs(v.z));
+    if (!(m > 0.0)) {
+        return vec4<f32>(0.0, 0.0, 0.0, -1.0);
+    }
+    let u = v / m;
+    let l = length(u);
+    return vec4<f32>(u / l, m * l);
 }
 
 // Table entries sit at scalars m / (M - 1); texel centres at (m + 0.5) / M.

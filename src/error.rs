@@ -48,6 +48,18 @@ pub fn try_vec<T: Clone>(n: usize, value: T, what: &str) -> Result<Vec<T>, Error
     Ok(v)
 }
 
+/// `items` (exactly `n` of them) collected into a vector whose memory is
+/// asked for first, fallibly (see `try_vec`).
+pub fn try_collect<U>(n: usize, what: &str, items: impl Iterator<Item = U>) -> Result<Vec<U>, Error> {
+    let mut v = Vec::new();
+    v.try_reserve_exact(n).map_err(|_| {
+        let bytes = (n as u128) * std::mem::size_of::<U>() as u128;
+        Error::OutOfMemory(format!("{what} needs {bytes} bytes of memory, which could not be allocated"))
+    })?;
+    v.extend(items);
+    Ok(v)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -10,6 +10,7 @@ use crate::config::OpacityCorrection;
 use crate::occupancy::{pyramid, MinMaxGrid};
 use crate::preintegrate;
 use crate::scene::Bounds;
+use crate::error::try_collect;
 use crate::volume::{sanitize, unit_direction, Precision, VolumeView, Voxels};
 
 const D2: wgpu::TextureDimension = wgpu::TextureDimension::D2;
@@ -53,20 +54,24 @@ impl VolumeGpu {
             Voxels::U8(v) => (wgpu::TextureFormat::R8Unorm, v),
             Voxels::U16(v) if unorm16 => (wgpu::TextureFormat::R16Unorm, bytemuck::cast_slice(v)),
             Voxels::U16(v) => {
-                let f: Vec<f32> = v.iter().map(|&x| x as f32 / 65535.0).collect();
-                converted = bytemuck::cast_slice(&f).to_vec();
+                let bytes = v.iter().flat_map(|&x| (x as f32 / 65535.0).to_ne_bytes());
+                converted = try_collect(v.len() * 4, "converting the volume", bytes)?;
                 (wgpu::TextureFormat::R32Float, &converted)
             }
             Voxels::F32(v) => {
                 if v.iter().any(|x| x.is_infinite()) {
-                    let f: Vec<f32> = v.iter().map(|&x| sanitize(x)).collect();
-                    converted = bytemuck::cast_slice(&f).to_vec();
+                    let bytes = v.iter().flat_map(|&x| sanitize(x).to_ne_bytes());
+                    converted = try_collect(v.len() * 4, "converting the volume", bytes)?;
                     (wgpu::TextureFormat::R32Float, &converted)
                 } else {
                     (wgpu::TextureFormat::R32Float, bytemuck::cast_slice(v))
                 }
             }
         };
+        // NaN (missing data) must poison every sample whose eight neighbours
+        // include it, as in the f64 integrator; hardware filtering of NaN is
+        // undefined, so such volumes are interpolated in the shader.
+        let has_nan = matches!(vol.voxels, Voxels::F32(v) if v.iter().any(|x| x.is_nan()));
         let size = extent_of(vol.dims);
         let view = ctx.texture_with_data("uploading the volume", "volume", size, D3, format, 1, bytes)?;
         // R8Unorm is filtered in the shader: lavapipe's 8-bit filtering path
@@ -74,7 +79,7 @@ impl VolumeGpu {
         // (measured: alpha 0.006 instead of 0.029 at a sphere's rim).
         let filterable = match format {
             wgpu::TextureFormat::R8Unorm => false,
-            wgpu::TextureFormat::R32Float => ctx.features.contains(wgpu::Features::FLOAT32_FILTERABLE),
+            wgpu::TextureFormat::R32Float => ctx.features.contains(wgpu::Features::FLOAT32_FILTERABLE) && !has_nan,
             _ => true,
         };
         let normals = match vol.normals {
@@ -99,17 +104,17 @@ impl VolumeGpu {
     /// (value, normal) per voxel, so that a lit sample fetches once. The
     /// occupancy grid is built from the rounded values the device reads.
     fn upload_f16(ctx: &GpuContext, vol: &VolumeView, values: &[f32]) -> Result<VolumeGpu, Error> {
-        let halves: Vec<u16> = values.iter().map(|&v| f32_to_f16(v)).collect();
+        let halves = try_collect(values.len(), "converting the volume to float16", values.iter().map(|&v| f32_to_f16(v)))?;
         // Built before the texels so that the rounded copy is freed first
         // (a 512^3 volume's texels alone take 1 GB).
         let grid = {
-            let rounded: Vec<f32> = halves.iter().map(|&h| f16_to_f32(h)).collect();
+            let rounded = try_collect(halves.len(), "converting the volume to float16", halves.iter().map(|&h| f16_to_f32(h)))?;
             MinMaxGrid::build(&VolumeView { voxels: Voxels::F32(&rounded), ..*vol })
         };
         let (format, data) = match vol.normals {
             None => (wgpu::TextureFormat::R16Float, halves),
             Some(n) => {
-                let mut texels = Vec::with_capacity(halves.len() * 4);
+                let mut texels = try_collect(halves.len() * 4, "packing values with normals", std::iter::empty())?;
                 for (&h, c) in halves.iter().zip(n.chunks_exact(3)) {
                     let u = unit_direction([c[0], c[1], c[2]]);
                     texels.extend_from_slice(&[h, f32_to_f16(u[0]), f32_to_f16(u[1]), f32_to_f16(u[2])]);
@@ -154,7 +159,7 @@ fn extent_of([s0, s1, s2]: [usize; 3]) -> wgpu::Extent3d {
 /// level, mean 0.004), and on lavapipe the lit frame is 18% faster than with
 /// Rgba16Float.
 fn upload_normals(ctx: &GpuContext, size: wgpu::Extent3d, n: &[f32]) -> Result<(wgpu::TextureView, u64), Error> {
-    let mut packed: Vec<i8> = Vec::with_capacity(n.len() / 3 * 4);
+    let mut packed: Vec<i8> = try_collect(n.len() / 3 * 4, "packing the normals", std::iter::empty())?;
     for c in n.chunks_exact(3) {
         let u = unit_direction([c[0], c[1], c[2]]);
         let q = |v: f32| (v * 127.0).round() as i8;

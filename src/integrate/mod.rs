@@ -192,13 +192,24 @@ pub fn render_image_interruptible(frame: &Frame, stop: &mut dyn FnMut() -> bool)
     let basis = frame.camera.basis(frame.width, frame.height)?;
     let (w, h) = (frame.width as usize, frame.height as usize);
     let pixels = w.checked_mul(h).ok_or_else(|| Error::InvalidInput(format!("image {w}x{h} is too large")))?;
-    let mut out = try_vec(pixels, RayResult::default(), "the float64 image")?;
+    // Per-ray results, then the image and depth made from them: ask for all
+    // of it up front, so a frame too large for memory fails before starting.
+    let need = pixels.checked_mul(2 * std::mem::size_of::<RayResult>());
+    let mut probe: Vec<u8> = Vec::new();
+    if need.is_none_or(|n| probe.try_reserve_exact(n).is_err()) {
+        return Err(Error::OutOfMemory(format!(
+            "a {w}x{h} float64 image needs about {} bytes of memory, which could not be allocated",
+            pixels as u128 * 2 * std::mem::size_of::<RayResult>() as u128
+        )));
+    }
+    drop(probe);
+    // Workers fill rows as they take them: nothing image-sized is touched
+    // before the work starts, so a Ctrl-C is answered at once.
     let threads = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1).min(h.max(1));
     let cfg = frame.config;
     let next_row = AtomicUsize::new(0);
     let cancelled = AtomicBool::new(false);
-    // Rows are handed out one at a time; each worker writes the rows it takes.
-    let rows: Vec<Mutex<&mut [RayResult]>> = out.chunks_mut(w.max(1)).map(Mutex::new).collect();
+    let rows: Vec<Mutex<Vec<RayResult>>> = (0..h).map(|_| Mutex::new(Vec::new())).collect();
     let (done_tx, done_rx) = std::sync::mpsc::channel::<()>();
     std::thread::scope(|s| {
         for _ in 0..threads {
@@ -210,12 +221,14 @@ pub fn render_image_interruptible(frame: &Frame, stop: &mut dyn FnMut() -> bool)
                     if row >= h || cancelled.load(Ordering::Relaxed) {
                         break;
                     }
-                    let mut pixels = rows[row].lock().unwrap_or_else(|p| p.into_inner());
-                    for (col, px) in pixels.iter_mut().enumerate() {
-                        let (col, row) = (col as u32, row as u32);
-                        let shift = if cfg.jitter { jitter_shift(col, row, cfg.jitter_seed) as f64 } else { 0.0 };
-                        *px = trace(frame, basis.origin, basis.direction(col, row, frame.width, frame.height), shift);
-                    }
+                    let results: Vec<RayResult> = (0..w as u32)
+                        .map(|col| {
+                            let row = row as u32;
+                            let shift = if cfg.jitter { jitter_shift(col, row, cfg.jitter_seed) as f64 } else { 0.0 };
+                            trace(frame, basis.origin, basis.direction(col, row, frame.width, frame.height), shift)
+                        })
+                        .collect();
+                    *rows[row].lock().unwrap_or_else(|p| p.into_inner()) = results;
                 }
                 let _ = done.send(());
             });
@@ -234,13 +247,20 @@ pub fn render_image_interruptible(frame: &Frame, stop: &mut dyn FnMut() -> bool)
             }
         }
     });
-    drop(rows);
-    if cancelled.load(std::sync::atomic::Ordering::Relaxed) {
+    if cancelled.load(Ordering::Relaxed) {
         return Err(Error::Interrupted);
     }
-    Ok(Image {
-        rgba: out.iter().map(|r| r.rgba).collect(),
-        depth: out.iter().map(|r| r.depth).collect(),
-        truncated_needed: out.iter().map(|r| r.truncated_needed).max().unwrap_or(0),
-    })
+    let mut image = Image {
+        rgba: try_vec(pixels, [0.0; 4], "the float64 image")?,
+        depth: try_vec(pixels, f64::INFINITY, "the float64 depth image")?,
+        truncated_needed: 0,
+    };
+    for (y, row) in rows.into_iter().enumerate() {
+        for (x, r) in row.into_inner().unwrap_or_else(|p| p.into_inner()).into_iter().enumerate() {
+            image.rgba[y * w + x] = r.rgba;
+            image.depth[y * w + x] = r.depth;
+            image.truncated_needed = image.truncated_needed.max(r.truncated_needed);
+        }
+    }
+    Ok(image)
 }

@@ -69,6 +69,15 @@ def _quaternion_to_camera_angles(rotation: Rotation, target, distance, init_pos,
     return azimuth, elevation, roll
 
 
+def _unit(v: np.ndarray):
+    """v / |v| without overflow or underflow in the norm; None for zero."""
+    m = np.max(np.abs(v))
+    if not m > 0:
+        return None
+    u = v / m
+    return u / np.linalg.norm(u)
+
+
 def get_camera_pos(target, azimuth, elevation, roll, distance, init_pos=None, init_up=None):
     """Camera position and up vector from spherical parameters (float64 arrays).
 
@@ -88,17 +97,21 @@ def get_camera_pos(target, azimuth, elevation, roll, distance, init_pos=None, in
         raise ValueError("init_pos must be a 3D numpy array")
     if not is_vec3(init_up):
         raise ValueError("init_up must be a 3D numpy array")
-    target = target.astype(np.float32)
-    init_pos = init_pos.astype(np.float32)
-    init_up = init_up.astype(np.float32)
+    # pyvr's float32 inputs, then float64 unit vectors: the distance only
+    # scales the result, so a scene 1e-30 or 1e30 across neither underflows
+    # nor overflows the norms (which flipped or broke the rotation).
+    target = target.astype(np.float32).astype(np.float64)
+    init_pos = init_pos.astype(np.float32).astype(np.float64)
+    init_up = init_up.astype(np.float32).astype(np.float64)
+    if not (np.all(np.isfinite(target)) and np.all(np.isfinite(init_pos)) and np.all(np.isfinite(init_up))
+            and np.isfinite(distance)):
+        raise ValueError("target, init_pos, init_up and distance must be finite")
 
-    rel = init_pos - target
-    norm = np.linalg.norm(rel)
-    if norm == 0:
+    unit = _unit(init_pos - target)
+    if unit is None:
         raise ValueError("init_pos must not be the zero vector (relative to target)")
-    rel = rel / norm * distance
     r_az = Rotation.from_rotvec(azimuth * init_up)
-    view_dir = -rel / np.linalg.norm(rel)
+    view_dir = -unit
     axis_el = np.cross(init_up, view_dir)
     if np.linalg.norm(axis_el) < 1e-6:
         fallback = np.array([1.0, 0.0, 0.0]) if abs(init_up[0]) < 0.9 else np.array([0.0, 0.0, 1.0])
@@ -107,7 +120,7 @@ def get_camera_pos(target, azimuth, elevation, roll, distance, init_pos=None, in
     r_el = Rotation.from_rotvec(elevation * axis_el)
     r_roll = Rotation.from_rotvec(roll * view_dir)
     r = r_az * r_el * r_roll
-    position = r.apply(rel) + target
+    position = r.apply(unit) * float(distance) + target
     up = r.apply(init_up)
     return np.asarray(position, dtype=np.float64), np.asarray(up, dtype=np.float64)
 
