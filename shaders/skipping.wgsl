@@ -7,12 +7,14 @@
 // voxels; the last cell along an axis may extend further, so exiting at its
 // nominal size is early, never late.
 // The level-l cell above level-0 cell c0 (the last one absorbs remainders).
+// Mip levels are passed as i32: wgpu's GL backend writes a u32 level into
+// GLSL's textureSize(sampler, int), which does not compile.
 fn level_cell(c0: vec3<i32>, l: u32) -> vec3<i32> {
-    return min(c0 >> vec3<u32>(l), vec3<i32>(textureDimensions(occupancy, l)) - 1);
+    return min(c0 >> vec3<u32>(l), vec3<i32>(textureDimensions(occupancy, i32(l))) - 1);
 }
 
 fn level_empty(c0: vec3<i32>, l: u32) -> bool {
-    return textureLoad(occupancy, level_cell(c0, l), l).r == 0u;
+    return textureLoad(occupancy, level_cell(c0, l), i32(l)).r == 0u;
 }
 
 fn empty_cell_exit(tc: vec3<f32>, d: vec3<f32>) -> f32 {

@@ -560,6 +560,7 @@ class VolumeRenderer:
             self.set_transfer_functions(ColorTransferFunction(), OpacityTransferFunction())
         cfg = self._config_snapshot if config is None else config
         size = (self.width, self.height) if size is None else size
+        _warn_if_long("this frame", _frame_samples(self._bounds, cfg, *size), LONG_FRAME_SAMPLES)
         if (self._engine.width, self._engine.height) != size:
             # Output buffers only; the volume, table and pipelines stay.
             self._engine.resize(*size)
@@ -569,7 +570,6 @@ class VolumeRenderer:
             camera_args = _camera_tuple(camera)
         else:
             camera_args = self._camera_args
-        _warn_if_long("this frame", _frame_samples(self._bounds, cfg, *size), LONG_FRAME_SAMPLES)
         img, stats = self._engine.render(camera_args, self._light_args, cfg)
         self.last_frame_stats = stats
         needed = stats["truncated_needed"]

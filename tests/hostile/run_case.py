@@ -1,0 +1,197 @@
+"""Runs one hostile case in a fresh process (the tests start it with limits,
+signals or start methods of their own) and prints one line:
+``OK <detail>`` or ``RAISED <ExceptionType>: <message>``. Dying any other
+way (abort, segfault, hang) is what the tests look for."""
+
+import os
+import signal
+import sys
+import threading
+import time
+import warnings
+
+import numpy as np
+
+warnings.simplefilter("ignore")
+
+
+def renderer(size=(32, 32)):
+    from pyvr import VolumeRenderer
+    from pyvr.volume import Volume
+
+    r = VolumeRenderer(*size)
+    r.load_volume(Volume(np.random.RandomState(0).rand(24, 24, 24).astype(np.float32)))
+    r.render()
+    return r
+
+
+def interrupt_after(seconds):
+    threading.Timer(seconds, lambda: os.kill(os.getpid(), signal.SIGINT)).start()
+
+
+def case_lut_1e9():
+    from pyvr.transferfunctions import ColorTransferFunction, OpacityTransferFunction
+
+    renderer().set_transfer_functions(ColorTransferFunction(lut_size=10**9), OpacityTransferFunction())
+
+
+def case_otf_2_40():
+    from pyvr.transferfunctions import OpacityTransferFunction
+
+    OpacityTransferFunction(lut_size=2**40).to_lut()
+
+
+def case_size_2_40():
+    from pyvr.transferfunctions import ColorTransferFunction, OpacityTransferFunction
+
+    renderer().set_transfer_functions(ColorTransferFunction(), OpacityTransferFunction(), size=2**40)
+
+
+def case_float64_20000():
+    renderer().render_float64(size=(20000, 20000))
+
+
+def case_core_float64_20000():
+    # The core's own check, without the Python layer's.
+    from pyvr import _core
+    from pyvr.renderer import _camera_tuple, _light_tuple
+    from pyvr.camera import Camera
+    from pyvr.lighting import Light
+    from pyvr.config import RenderConfig
+
+    lut = np.ones((4, 4), np.float32)
+    _core.integrate_reference(np.zeros((4, 4, 4), np.float32), None, (-1, -1, -1), (1, 1, 1), lut,
+                              _camera_tuple(Camera.front_view()), _light_tuple(Light.default()),
+                              RenderConfig(), 20000, 20000)
+
+
+def case_float16_4gib():
+    from pyvr import VolumeRenderer
+    from pyvr.volume import Volume
+
+    data = np.zeros((1024, 1024, 1024), np.float32)  # 4 GiB, pages untouched
+    VolumeRenderer(16, 16).load_volume(Volume(data), precision="float16")
+
+
+def case_float16_3_75gib():
+    # Under the device's upload limit as float16 (1.9 GiB), over what an
+    # 8 GiB address space leaves once the 3.75 GiB array is mapped.
+    from pyvr import VolumeRenderer
+    from pyvr.volume import Volume
+
+    data = np.zeros((960, 1024, 1024), np.float32)
+    VolumeRenderer(16, 16).load_volume(Volume(data), precision="float16")
+
+
+def case_broadcast_4096():
+    from pyvr import VolumeRenderer
+    from pyvr.volume import Volume
+
+    data = np.broadcast_to(np.float32(0.5), (4096, 4096, 4096))
+    VolumeRenderer(16, 16).load_volume(Volume(data))
+
+
+def case_4096_4096_33():
+    from pyvr import VolumeRenderer
+    from pyvr.volume import Volume
+
+    VolumeRenderer(16, 16).load_volume(Volume(np.zeros((4096, 4096, 33), np.float32)))
+
+
+def case_sigint_gpu():
+    from pyvr.config import RenderConfig
+
+    r = renderer((64, 64))
+    interrupt_after(1.0)
+    t = time.time()
+    try:
+        r.render(config=RenderConfig(step_size=1e-7, max_steps=2**31 - 1, early_ray_termination=False))
+    except KeyboardInterrupt:
+        waited = time.time() - t - 1.0
+        r.render()  # still usable
+        print(f"OK interrupted {waited:.2f}")
+        return True
+
+
+def case_sigint_float64():
+    r = renderer()
+    interrupt_after(1.0)
+    t = time.time()
+    try:
+        r.render_float64(size=(6000, 6000))
+    except KeyboardInterrupt:
+        print(f"OK interrupted {time.time() - t - 1.0:.2f}")
+        return True
+
+
+def case_sigint_adaptive():
+    r = renderer()
+    interrupt_after(1.0)
+    t = time.time()
+    try:
+        r.render_float64(size=(48, 48), adaptive_tolerance=1e-12)
+        print(f"OK finished {time.time() - t:.2f}")
+    except KeyboardInterrupt:
+        print(f"OK interrupted {time.time() - t - 1.0:.2f}")
+    return True
+
+
+def case_fork_child_renders():
+    r = renderer()
+    ref = r.render()
+    pid = os.fork()
+    if pid == 0:
+        from pyvr import VolumeRenderer
+        from pyvr.volume import Volume
+
+        same = int(np.abs(r.render().astype(int) - ref).max())
+        fresh = VolumeRenderer(32, 32)
+        fresh.load_volume(r.volume)
+        other = int(np.abs(fresh.render().astype(int) - ref).max())
+        os.write(1, f"OK child {same} {other}\n".encode())
+        os._exit(0)
+    _, status = os.waitpid(pid, 0)
+    return os.waitstatus_to_exitcode(status) == 0 or print(f"RAISED ChildDied: {status}")
+
+
+def _pool_job(i):
+    return int(_GLOBAL.render().astype(int).sum())
+
+
+def case_pool():
+    import multiprocessing as mp
+
+    global _GLOBAL
+    _GLOBAL = renderer()
+    ref = int(_GLOBAL.render().astype(int).sum())
+    method = sys.argv[2]
+    with mp.get_context(method).Pool(2, initializer=_init_worker) as pool:
+        sums = pool.map(_pool_job, range(4))
+    print(f"OK {method} {sorted(set(s - ref for s in sums))}")
+    return True
+
+
+def _init_worker():
+    global _GLOBAL
+    if "_GLOBAL" not in globals():  # spawn and forkserver start from nothing
+        _GLOBAL = renderer()
+
+
+def case_xdg():
+    os.environ.pop("XDG_RUNTIME_DIR", None)
+    renderer()
+    print("OK rendered")
+    return True
+
+
+if __name__ == "__main__":
+    sys.path.insert(0, os.path.dirname(__file__))
+    try:
+        done = globals()["case_" + sys.argv[1]]()
+        if not done:
+            print("OK returned")
+    except BaseException as e:
+        print(f"RAISED {type(e).__name__}: {str(e)[:300]}")
+    import resource
+
+    print(f"PEAK_RSS_MIB {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f}")

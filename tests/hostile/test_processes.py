@@ -1,0 +1,90 @@
+"""Huge sizes, address-space limits, Ctrl-C, fork and multiprocessing: each
+case runs in its own interpreter (tests/hostile/run_case.py), so an abort, a
+crash or a hang fails the test instead of the test run."""
+
+import os
+import resource
+import subprocess
+import sys
+
+import pytest
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+
+
+def run(case, *args, address_space=None, timeout=120):
+    """(result line, peak RSS in MiB) of a case; fails on any other death."""
+    def limit():
+        if address_space is not None:
+            resource.setrlimit(resource.RLIMIT_AS, (address_space, address_space))
+
+    p = subprocess.run([sys.executable, os.path.join(HERE, "run_case.py"), case, *args], capture_output=True,
+                       text=True, timeout=timeout, preexec_fn=limit)
+    assert p.returncode == 0, f"{case} died with {p.returncode}: {p.stderr[-2000:]}"
+    lines = [l for l in p.stdout.splitlines() if l.startswith(("OK", "RAISED", "PEAK_RSS_MIB"))]
+    result = next(l for l in lines if not l.startswith("PEAK"))
+    rss = float(next(l for l in lines if l.startswith("PEAK")).split()[1])
+    return result, rss
+
+
+GiB = 1 << 30
+
+
+@pytest.mark.parametrize("case, expected, limit", [
+    ("lut_1e9", "RAISED ValueError: lut_size must be at most", None),
+    ("otf_2_40", "RAISED ValueError: lut_size must be at most", None),
+    ("size_2_40", "RAISED ValueError: size must be at most", None),
+    ("float64_20000", "RAISED MemoryError: render_float64 at 20000x20000 needs about", None),
+    ("core_float64_20000", "RAISED MemoryError: a 20000x20000 float64 image needs", None),
+    ("broadcast_4096", "RAISED ValueError: volume shape (4096, 4096, 4096)", None),
+    # 4 GiB of float32 to float16 under an 8 GiB address-space limit.
+    ("float16_4gib", "RAISED ValueError: volume shape (1024, 1024, 1024) needs", 8 * GiB),
+    ("float16_3_75gib", "RAISED MemoryError: loading volume (960, 1024, 1024) needs about", 8 * GiB),
+])
+def test_huge_requests_raise_before_allocating(case, expected, limit):
+    result, rss = run(case, address_space=limit)
+    assert result.startswith(expected), result
+    assert "Error" in result and ("MemoryError" in result or "ValueError" in result)
+    assert rss < 1024, f"{case} peaked at {rss} MiB before refusing"
+
+
+def test_a_volume_over_the_device_upload_limit_is_a_value_error():
+    from pyvr import _core
+
+    limit = _core.device_limits()["max_buffer_size"]
+    result, rss = run("4096_4096_33", address_space=None)
+    if 4096 * 4096 * 33 * 4 > limit:
+        assert result.startswith("RAISED ValueError: volume shape (4096, 4096, 33) needs"), result
+    else:
+        assert result.startswith("OK"), result
+
+
+@pytest.mark.parametrize("case", ["sigint_gpu", "sigint_float64"])
+def test_ctrl_c_stops_long_work_within_a_second(case):
+    result, _ = run(case)
+    assert result.startswith("OK interrupted"), result
+    assert float(result.split()[-1]) < 1.0, result
+
+
+def test_ctrl_c_or_a_work_bound_ends_tiny_adaptive_tolerances():
+    # 1e-12 used to cut every segment 2^24 times; now at most MAX_PIECES.
+    result, _ = run("sigint_adaptive")
+    assert result.startswith("OK"), result
+    assert float(result.split()[-1]) < 5.0, result
+
+
+def test_a_forked_child_renders_with_the_parents_renderer():
+    result, _ = run("fork_child_renders", timeout=60)
+    assert result == "OK child 0 0", result
+
+
+@pytest.mark.parametrize("method", ["fork", "spawn", "forkserver"])
+def test_multiprocessing_pools_render_the_same_frames(method):
+    result, _ = run("pool", method, timeout=120)
+    assert result == f"OK {method} [0]", result
+
+
+def test_no_runtime_dir_still_renders_quietly():
+    p = subprocess.run([sys.executable, os.path.join(HERE, "run_case.py"), "xdg"], capture_output=True, text=True,
+                       timeout=60, env={k: v for k, v in os.environ.items() if k != "XDG_RUNTIME_DIR"})
+    assert "OK rendered" in p.stdout and "XDG_RUNTIME_DIR" not in p.stderr, p.stderr
