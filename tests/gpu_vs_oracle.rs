@@ -326,3 +326,54 @@ fn errors_say_whose_move_it_is() {
     assert!(matches!(err, Error::InvalidInput(ref m) if m.starts_with("no volume loaded")), "{err}");
     assert!(matches!(gpu.set_lut(&[]), Err(Error::InvalidInput(_))));
 }
+
+#[test]
+fn a_stop_request_ends_a_long_frame_between_passes() {
+    use pyvr_core::error::Error;
+    let data = blob([16, 16, 16]);
+    let lut = ramp_lut();
+    let vol = VolumeView::new([16, 16, 16], Voxels::F32(&data), None, Bounds::default()).unwrap();
+    let mut f = base_frame(vol, &lut);
+    // About 35,000 steps a ray: three passes or more.
+    f.config = RenderConfig { step_size: 1e-4, max_steps: 100_000, early_ray_termination: false, ..RenderConfig::default() };
+    let mut gpu = GpuRenderer::new(f.width, f.height).unwrap();
+    gpu.set_volume(&f.volume).unwrap();
+    gpu.set_lut(f.lut).unwrap();
+    let mut asked = 0;
+    let r = gpu.render_interruptible(&f.camera, &f.light, &f.config, &mut || {
+        asked += 1;
+        true
+    });
+    assert!(matches!(r, Err(Error::Interrupted)), "{r:?}");
+    assert_eq!(asked, 1, "asked once, after the first pass finished");
+    // The renderer goes on: the same frame, uninterrupted, has every pass.
+    let (_, stats) = gpu.render(&f.camera, &f.light, &f.config).unwrap();
+    assert!(stats.passes >= 3, "{}", stats.passes);
+    let mut checks = 0;
+    let (_, stats) = gpu
+        .render_interruptible(&f.camera, &f.light, &f.config, &mut || {
+            checks += 1;
+            false
+        })
+        .unwrap();
+    // (Pass sizes follow the device's measured speed, so count this frame's.)
+    assert_eq!(checks, stats.passes - 1, "asked between every two passes");
+}
+
+#[test]
+fn the_oracle_stops_when_asked() {
+    use pyvr_core::error::Error;
+    use pyvr_core::integrate::render_image_interruptible;
+    let data = blob([16, 16, 16]);
+    let lut = ramp_lut();
+    let vol = VolumeView::new([16, 16, 16], Voxels::F32(&data), None, Bounds::default()).unwrap();
+    let mut f = base_frame(vol, &lut);
+    f.config = RenderConfig { step_size: 1e-5, max_steps: 1_000_000, early_ray_termination: false, ..RenderConfig::default() };
+    f.width = 256;
+    f.height = 256;
+    let started = std::time::Instant::now();
+    let r = render_image_interruptible(&f, &mut |_| true);
+    assert!(matches!(r, Err(Error::Interrupted)), "stopped");
+    // The whole frame takes minutes; stopping waits only for the rows in progress.
+    assert!(started.elapsed().as_secs_f64() < 5.0, "{:?}", started.elapsed());
+}

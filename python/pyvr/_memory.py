@@ -2,7 +2,6 @@
 fit raises MemoryError naming what it was for and how much it needed,
 instead of the process being killed (or aborting) half way through."""
 
-import os
 from typing import Optional
 
 GiB = float(1 << 30)

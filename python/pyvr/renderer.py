@@ -117,8 +117,8 @@ def _path_cameras(path, n_frames, endpoint):
     return len(cameras), cameras
 
 
-def _progress(progress):
-    """A function making a progress bar of n frames, or None for no bar."""
+def _progress(progress, unit="frame", desc="render_path"):
+    """A function making a progress bar of n units, or None for no bar."""
     if progress is False:
         return None
     try:
@@ -127,7 +127,7 @@ def _progress(progress):
         if progress:
             raise ImportError("progress bars need tqdm: pip install 'pyvr[progress]'") from None
         return None
-    return lambda total: tqdm(total=total, unit="frame", desc="render_path")
+    return lambda total: tqdm(total=total, unit=unit, desc=desc)
 
 
 def _table_of(tf, n, shape, what):
@@ -639,7 +639,7 @@ class VolumeRenderer:
 
     def render_float64(self, *, config: Optional[RenderConfig] = None, premultiplied: bool = False,
                        origin: str = "lower", order: Optional[str] = None,
-                       size: Optional[tuple] = None, adaptive_tolerance: float = 0.0) -> np.ndarray:
+                       size: Optional[tuple] = None, adaptive_tolerance: float = 0.0, progress=None) -> np.ndarray:
         """The same frame from the float64 CPU integrator (the engine's oracle).
 
         Slow (CPU, one thread per core); meant for checking accuracy, e.g.
@@ -653,8 +653,12 @@ class VolumeRenderer:
         (e.g. a coarse pilot of the rays). ``adaptive_tolerance`` > 0 splits
         segments in halves (down to 2^-24 of a step) while the transfer
         function varies across their values by more than it (optical depth
-        or emitted colour per piece): steps and narrow peaks of the TF are
-        located rather than sampled, for converged references.
+        or emitted colour per piece, at most 4096 pieces a step): steps and
+        narrow peaks of the TF are located rather than sampled, for
+        converged references.
+        ``progress``: a tqdm bar of rows (True), none (False), or by default
+        one for frames estimated at more than 2e8 samples when tqdm is
+        installed. Ctrl-C stops the work (KeyboardInterrupt).
         """
         if self.volume is None:
             raise RuntimeError("no volume loaded: call load_volume() before render_float64()")
@@ -682,11 +686,19 @@ class VolumeRenderer:
                    "render a smaller size=(width, height)")
         samples = _frame_samples(self._bounds, cfg, width, height) * (8 if adaptive_tolerance > 0 else 1)
         _warn_if_long("render_float64", samples, LONG_FLOAT64_SAMPLES)
-        img, _, depth = _core.integrate_reference(
-            prepare_voxels(self.volume.data), prepare_normals(self.volume.normals), *self._bounds, self._lut,
-            camera, self._light_args, cfg, width, height, order, float(adaptive_tolerance),
-            self._value_map, self._crop,
-        )
+        make_bar = _progress(progress if progress is not None or samples > 2e8 else False, "row", "render_float64")
+        bar = None if make_bar is None else make_bar(height)
+        try:
+            img, _, depth = _core.integrate_reference(
+                prepare_voxels(self.volume.data), prepare_normals(self.volume.normals), *self._bounds, self._lut,
+                camera, self._light_args, cfg, width, height, order, float(adaptive_tolerance),
+                self._value_map, self._crop, None if bar is None else (lambda rows: bar.update(rows - bar.n)),
+            )
+            if bar is not None:
+                bar.update(height - bar.n)
+        finally:
+            if bar is not None:
+                bar.close()
         self.last_float64_depth = depth
         if not premultiplied:
             img[..., :3] = _straight(img)

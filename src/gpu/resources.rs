@@ -44,11 +44,31 @@ impl VolumeGpu {
                 vol.dims
             )));
         }
+        // A texture's data goes through one staging buffer: more than the
+        // device's largest buffer fails validation with no useful message.
+        let unorm16 = ctx.features.contains(wgpu::Features::TEXTURE_FORMAT_16BIT_NORM);
+        let texel: u64 = match (vol.voxels, precision, vol.normals.is_some()) {
+            (Voxels::F32(_), Precision::Float16, true) => 8,
+            (Voxels::F32(_), Precision::Float16, false) => 2,
+            (Voxels::F32(_), _, _) => 4,
+            (Voxels::U16(_), _, _) if unorm16 => 2,
+            (Voxels::U16(_), _, _) => 4,
+            (Voxels::U8(_), _, _) => 1,
+        };
+        // Normals beside a float32 or integer volume are a texture of their own (4 bytes a voxel).
+        let separate_normals = vol.normals.is_some() && texel != 8;
+        let bytes = vol.voxels.len() as u64 * texel.max(if separate_normals { 4 } else { 0 });
+        let max = ctx.limits.max_buffer_size;
+        if bytes > max {
+            return Err(Error::DeviceLimit(format!(
+                "volume shape {:?} needs {bytes} bytes on the device, over its limit of {max} bytes per upload",
+                vol.dims
+            )));
+        }
         if let (Voxels::F32(v), Precision::Float16) = (vol.voxels, precision) {
             precision.check(v)?;
             return Self::upload_f16(ctx, vol, v);
         }
-        let unorm16 = ctx.features.contains(wgpu::Features::TEXTURE_FORMAT_16BIT_NORM);
         let converted: Vec<u8>;
         let (format, bytes): (wgpu::TextureFormat, &[u8]) = match vol.voxels {
             Voxels::U8(v) => (wgpu::TextureFormat::R8Unorm, v),

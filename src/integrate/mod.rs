@@ -180,13 +180,14 @@ pub fn render_ordered(frame: &Frame, order: Order) -> Result<(Vec<[f64; 4]>, u64
 }
 
 pub fn render_image(frame: &Frame) -> Result<Image, Error> {
-    render_image_interruptible(frame, &mut || false)
+    render_image_interruptible(frame, &mut |_| false)
 }
 
-/// `render_image`, asking `stop` about every 50 ms from the calling thread
-/// while worker threads (one per core) take rows in turn; `stop` returning
-/// true ends the frame with `Error::Interrupted` after the rows in progress.
-pub fn render_image_interruptible(frame: &Frame, stop: &mut dyn FnMut() -> bool) -> Result<Image, Error> {
+/// `render_image`, calling `stop(rows finished)` about every 50 ms from the
+/// calling thread while worker threads (one per core) take rows in turn;
+/// `stop` returning true ends the frame with `Error::Interrupted` after the
+/// rows in progress.
+pub fn render_image_interruptible(frame: &Frame, stop: &mut dyn FnMut(usize) -> bool) -> Result<Image, Error> {
     use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
     use std::sync::Mutex;
     let basis = frame.camera.basis(frame.width, frame.height)?;
@@ -209,12 +210,13 @@ pub fn render_image_interruptible(frame: &Frame, stop: &mut dyn FnMut() -> bool)
     let cfg = frame.config;
     let next_row = AtomicUsize::new(0);
     let cancelled = AtomicBool::new(false);
+    let rows_done = AtomicUsize::new(0);
     let rows: Vec<Mutex<Vec<RayResult>>> = (0..h).map(|_| Mutex::new(Vec::new())).collect();
     let (done_tx, done_rx) = std::sync::mpsc::channel::<()>();
     std::thread::scope(|s| {
         for _ in 0..threads {
             let done = done_tx.clone();
-            let (rows, next_row, cancelled) = (&rows, &next_row, &cancelled);
+            let (rows, next_row, cancelled, rows_done) = (&rows, &next_row, &cancelled, &rows_done);
             s.spawn(move || {
                 loop {
                     let row = next_row.fetch_add(1, Ordering::Relaxed);
@@ -229,6 +231,7 @@ pub fn render_image_interruptible(frame: &Frame, stop: &mut dyn FnMut() -> bool)
                         })
                         .collect();
                     *rows[row].lock().unwrap_or_else(|p| p.into_inner()) = results;
+                    rows_done.fetch_add(1, Ordering::Relaxed);
                 }
                 let _ = done.send(());
             });
@@ -239,7 +242,7 @@ pub fn render_image_interruptible(frame: &Frame, stop: &mut dyn FnMut() -> bool)
             match done_rx.recv_timeout(std::time::Duration::from_millis(50)) {
                 Ok(()) => finished += 1,
                 Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {
-                    if !cancelled.load(Ordering::Relaxed) && stop() {
+                    if !cancelled.load(Ordering::Relaxed) && stop(rows_done.load(Ordering::Relaxed)) {
                         cancelled.store(true, Ordering::Relaxed);
                     }
                 }

@@ -313,9 +313,11 @@ pub fn quantize<'py>(py: Python<'py>, rgba: PyReadonlyArray3<'py, f32>, straight
 /// (H, W) isosurface hit distances (inf where none or another model).
 /// `order` overrides the config's when given; `adaptive_tolerance` > 0
 /// splits segments where the transfer function varies (see `Frame`).
+/// `progress`, if given, is called with the rows finished about every 50
+/// ms; Ctrl-C stops the work (KeyboardInterrupt).
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
-#[pyo3(signature = (data, normals, min_bounds, max_bounds, lut, camera, light, config, width, height, order=None, adaptive_tolerance=0.0, value_map=(1.0, 0.0), clip=None))]
+#[pyo3(signature = (data, normals, min_bounds, max_bounds, lut, camera, light, config, width, height, order=None, adaptive_tolerance=0.0, value_map=(1.0, 0.0), clip=None, progress=None))]
 pub fn integrate_reference<'py>(
     py: Python<'py>,
     data: &Bound<'py, PyAny>,
@@ -332,6 +334,7 @@ pub fn integrate_reference<'py>(
     adaptive_tolerance: f64,
     value_map: (f64, f64),
     clip: Option<(Vec3, Vec3)>,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<(Bound<'py, PyArray3<f64>>, u64, Bound<'py, PyArray2<f64>>)> {
     if !(adaptive_tolerance >= 0.0 && adaptive_tolerance.is_finite()) {
         return Err(PyValueError::new_err(format!("adaptive_tolerance must be a finite number >= 0, got {adaptive_tolerance}")));
@@ -348,7 +351,15 @@ pub fn integrate_reference<'py>(
     let light = light_from(&light)?;
     let img = with_volume(data, &normals, min_bounds, max_bounds, |volume| {
         let frame = Frame { volume, lut: &rows, camera, light, config: cfg, width, height, adaptive_tolerance, value_map, clip };
-        run_released(py, |stop| integrate::render_image_interruptible(&frame, stop))
+        run_released(py, |stop| {
+            integrate::render_image_interruptible(&frame, &mut |rows| {
+                if let Some(report) = &progress {
+                    // A failing progress display must not cost the frame.
+                    Python::attach(|py| report.call1(py, (rows,)).map(drop).unwrap_or_else(|e| e.print(py)));
+                }
+                stop()
+            })
+        })
     })?;
     let flat: Vec<f64> = img.rgba.into_iter().flatten().collect();
     let shape = [height as usize, width as usize];

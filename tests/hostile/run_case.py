@@ -25,8 +25,19 @@ def renderer(size=(32, 32)):
     return r
 
 
-def interrupt_after(seconds):
-    threading.Timer(seconds, lambda: os.kill(os.getpid(), signal.SIGINT)).start()
+def interrupted(work, after=1.0):
+    """Runs ``work`` with a SIGINT sent ``after`` seconds in; prints how long
+    past the signal it took to stop, or how long it took to finish."""
+    timer = threading.Timer(after, lambda: os.kill(os.getpid(), signal.SIGINT))
+    timer.start()
+    t = time.time()
+    try:
+        work()
+        timer.cancel()
+        print(f"OK finished {time.time() - t:.2f}")
+    except KeyboardInterrupt:
+        print(f"OK interrupted {time.time() - t - after:.2f}")
+    return True
 
 
 def case_lut_1e9():
@@ -83,6 +94,28 @@ def case_float16_3_75gib():
     VolumeRenderer(16, 16).load_volume(Volume(data), precision="float16")
 
 
+def case_vti_bomb():
+    # A 1 MiB file whose one zlib block inflates to 1 GiB, its header
+    # claiming the 256 bytes the extent needs.
+    import struct
+    import tempfile
+    import zlib
+
+    from pyvr.dataloaders import load_vti
+
+    bomb = zlib.compress(bytes(1 << 30), 9)
+    path = os.path.join(tempfile.mkdtemp(), "bomb.vti")
+    with open(path, "wb") as f:
+        f.write(b'<?xml version="1.0"?><VTKFile type="ImageData" byte_order="LittleEndian" header_type="UInt32" '
+                b'compressor="vtkZLibDataCompressor"><ImageData WholeExtent="0 3 0 3 0 3" Origin="0 0 0" '
+                b'Spacing="1 1 1"><Piece Extent="0 3 0 3 0 3"><PointData Scalars="s"><DataArray type="Float32" '
+                b'Name="s" format="appended" offset="0"/></PointData></Piece></ImageData>'
+                b'<AppendedData encoding="raw">_' + struct.pack("<4I", 1, 256, 0, len(bomb)) + bomb
+                + b"</AppendedData></VTKFile>")
+    del bomb
+    load_vti(path)
+
+
 def case_broadcast_4096():
     from pyvr import VolumeRenderer
     from pyvr.volume import Volume
@@ -102,38 +135,19 @@ def case_sigint_gpu():
     from pyvr.config import RenderConfig
 
     r = renderer((64, 64))
-    interrupt_after(1.0)
-    t = time.time()
-    try:
-        r.render(config=RenderConfig(step_size=1e-7, max_steps=2**31 - 1, early_ray_termination=False))
-    except KeyboardInterrupt:
-        waited = time.time() - t - 1.0
-        r.render()  # still usable
-        print(f"OK interrupted {waited:.2f}")
-        return True
+    interrupted(lambda: r.render(config=RenderConfig(step_size=1e-7, max_steps=2**31 - 1, early_ray_termination=False)))
+    r.render()  # still usable
+    return True
 
 
 def case_sigint_float64():
     r = renderer()
-    interrupt_after(1.0)
-    t = time.time()
-    try:
-        r.render_float64(size=(6000, 6000))
-    except KeyboardInterrupt:
-        print(f"OK interrupted {time.time() - t - 1.0:.2f}")
-        return True
+    return interrupted(lambda: r.render_float64(size=(6000, 6000)))
 
 
 def case_sigint_adaptive():
     r = renderer()
-    interrupt_after(1.0)
-    t = time.time()
-    try:
-        r.render_float64(size=(48, 48), adaptive_tolerance=1e-12)
-        print(f"OK finished {time.time() - t:.2f}")
-    except KeyboardInterrupt:
-        print(f"OK interrupted {time.time() - t - 1.0:.2f}")
-    return True
+    return interrupted(lambda: r.render_float64(size=(48, 48), adaptive_tolerance=1e-12))
 
 
 def case_fork_child_renders():
@@ -142,7 +156,6 @@ def case_fork_child_renders():
     pid = os.fork()
     if pid == 0:
         from pyvr import VolumeRenderer
-        from pyvr.volume import Volume
 
         same = int(np.abs(r.render().astype(int) - ref).max())
         fresh = VolumeRenderer(32, 32)
@@ -175,6 +188,37 @@ def _init_worker():
     global _GLOBAL
     if "_GLOBAL" not in globals():  # spawn and forkserver start from nothing
         _GLOBAL = renderer()
+
+
+def gl_scenes():
+    """Frames of a few shader paths: lit emission-absorption with skipping,
+    MIP, isosurface, float16 with normals."""
+    from pyvr import RenderConfig
+    from pyvr.lighting import Light
+    from pyvr.volume import Volume
+
+    from scenes import blob, frame, make_renderer
+
+    data = blob((24, 20, 16), width=0.5)
+    vol = Volume(data)
+    vol.compute_normals()
+    out = {}
+    out["lit"] = frame(make_renderer(Volume(data), light=Light.directional([1, -1, 0.5])))
+    out["mip"] = frame(make_renderer(Volume(data), config=RenderConfig().replace(model="mip")))
+    out["iso"] = frame(make_renderer(Volume(data), config=RenderConfig().replace(model="isosurface", iso_value=0.4)))
+    out["half"] = frame(make_renderer(vol, precision="float16", light=Light.directional([0, -1, -1])))
+    return out
+
+
+def case_gl_frames():
+    os.environ["PYVR_BACKEND"] = "gl"
+    sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
+    frames = gl_scenes()
+    from pyvr import _core
+
+    np.savez(sys.argv[2], device=_core.device_info(), **frames)
+    print("OK saved")
+    return True
 
 
 def case_xdg():

@@ -37,6 +37,7 @@ GiB = 1 << 30
     ("float64_20000", "RAISED MemoryError: render_float64 at 20000x20000 needs about", None),
     ("core_float64_20000", "RAISED MemoryError: a 20000x20000 float64 image needs", None),
     ("broadcast_4096", "RAISED ValueError: volume shape (4096, 4096, 4096)", None),
+    ("vti_bomb", "RAISED FileFormatError: ", 4 * GiB),
     # 4 GiB of float32 to float16 under an 8 GiB address-space limit.
     ("float16_4gib", "RAISED ValueError: volume shape (1024, 1024, 1024) needs", 8 * GiB),
     ("float16_3_75gib", "RAISED MemoryError: loading volume (960, 1024, 1024) needs about", 8 * GiB),
