@@ -349,18 +349,24 @@ pub fn integrate_reference<'py>(
     cfg.validate().map_err(to_py)?;
     let camera = camera_from(&camera);
     let light = light_from(&light)?;
-    let img = with_volume(data, &normals, min_bounds, max_bounds, |volume| {
+    // The progress callback runs Python code, where a Ctrl-C's
+    // KeyboardInterrupt may surface: it stops the frame and is raised.
+    let mut raised_in_progress: Option<PyErr> = None;
+    let result = with_volume(data, &normals, min_bounds, max_bounds, |volume| {
         let frame = Frame { volume, lut: &rows, camera, light, config: cfg, width, height, adaptive_tolerance, value_map, clip };
         run_released(py, |stop| {
             integrate::render_image_interruptible(&frame, &mut |rows| {
                 if let Some(report) = &progress {
-                    // A failing progress display must not cost the frame.
-                    Python::attach(|py| report.call1(py, (rows,)).map(drop).unwrap_or_else(|e| e.print(py)));
+                    if let Err(e) = Python::attach(|py| report.call1(py, (rows,)).map(drop)) {
+                        raised_in_progress = Some(e);
+                        return true;
+                    }
                 }
                 stop()
             })
         })
-    })?;
+    });
+    let img = result.map_err(|e| raised_in_progress.take().unwrap_or(e))?;
     let flat: Vec<f64> = img.rgba.into_iter().flatten().collect();
     let shape = [height as usize, width as usize];
     Ok((
