@@ -13,13 +13,15 @@ fn light_travel(p: vec3<f32>) -> vec4<f32> {
     return vec4<f32>(P.light_dir.xyz, 3.0e38);
 }
 
+// `n` is a decoded unit normal or a gradient already scaled into a safe
+// range (sampling.wgsl), so its plain length cannot overflow.
 fn light_intensity(n: vec3<f32>, p: vec3<f32>) -> f32 {
-    let nd = direction_and_length(n);
+    let ln = length(n);
     let l = light_travel(p);
-    if (nd.w < 0.0 || l.w < 0.0) {
+    if (!(ln > 0.0) || l.w < 0.0) {
         return P.ambient;
     }
-    return P.ambient + P.diffuse * max(dot(nd.xyz, l.xyz), 0.0);
+    return P.ambient + P.diffuse * max(dot(n / ln, l.xyz), 0.0);
 }
 
 // 4π p(cos θ) of Henyey–Greenstein (1 when g = 0: isotropic).

@@ -334,7 +334,7 @@ fn a_stop_request_ends_a_long_frame_between_passes() {
     let lut = ramp_lut();
     let vol = VolumeView::new([16, 16, 16], Voxels::F32(&data), None, Bounds::default()).unwrap();
     let mut f = base_frame(vol, &lut);
-    // About 35,000 steps a ray: three passes or more.
+    // Rays of up to ~30,000 steps: two passes of at most 16384 or more.
     f.config = RenderConfig { step_size: 1e-4, max_steps: 100_000, early_ray_termination: false, ..RenderConfig::default() };
     let mut gpu = GpuRenderer::new(f.width, f.height).unwrap();
     gpu.set_volume(&f.volume).unwrap();
@@ -348,7 +348,7 @@ fn a_stop_request_ends_a_long_frame_between_passes() {
     assert_eq!(asked, 1, "asked once, after the first pass finished");
     // The renderer goes on: the same frame, uninterrupted, has every pass.
     let (_, stats) = gpu.render(&f.camera, &f.light, &f.config).unwrap();
-    assert!(stats.passes >= 3, "{}", stats.passes);
+    assert!(stats.passes >= 2, "{}", stats.passes);
     let mut checks = 0;
     let (_, stats) = gpu
         .render_interruptible(&f.camera, &f.light, &f.config, &mut || {

@@ -229,21 +229,26 @@ def _check_volume_fits(volume: Volume, precision: str) -> None:
         )
     voxels = int(np.prod(shape, dtype=np.int64))
     stored = _storage_dtype(volume.data.dtype)
-    texel = 2 if precision == "float16" and stored == np.float32 else stored.itemsize
-    if isinstance(volume.data, np.ma.MaskedArray):
-        texel = 4
-    device_bytes = voxels * texel + (0 if volume.normals is None else voxels * 4)
+    texel = 4 if isinstance(volume.data, np.ma.MaskedArray) else stored.itemsize
+    normals = 0 if volume.normals is None else 4
+    if precision == "float16" and texel == 4:
+        # float16 values, with normals packed into the same texel.
+        texel, normals = (2, 0) if volume.normals is None else (8, 0)
+    device_bytes = voxels * max(texel, normals)
     if device_bytes > limits["max_buffer_size"]:
         raise ValueError(
             f"volume shape {shape} needs {device_bytes} bytes on the device, over its limit of "
             f"{limits['max_buffer_size']} bytes per upload; downsample or crop it"
             + (", or load it with precision='float16'" if texel == 4 and precision == "float32" else "")
         )
-    copy = 0 if np.asarray(volume.data).dtype == stored and volume.data.flags.c_contiguous else voxels * stored.itemsize
+    plain = type(volume.data) is np.ndarray and volume.data.dtype == stored and volume.data.flags.c_contiguous
+    copy = 0 if plain else voxels * 4
     from ._memory import check_fits
 
-    # A converted copy, then packing and the driver's staging copy of what the device stores.
-    check_fits(f"loading volume {shape}", copy + 2 * device_bytes, "downsample or crop the volume")
+    # A converted copy, then packing and the driver's staging copy of what
+    # the device stores (textures of values and of normals).
+    stored_bytes = voxels * (texel + normals)
+    check_fits(f"loading volume {shape}", copy + 2 * stored_bytes, "downsample or crop the volume")
 
 
 #: Samples a frame may take before a warning says it will be slow: about a

@@ -34,6 +34,9 @@ pub struct PassPlan {
     /// Rays keep 16 bytes of state per pixel (between passes, or the
     /// isosurface's depth).
     pub per_pixel_state: bool,
+    /// Samples the frame would take if every ray ran `max_steps_needed`
+    /// steps (shadow rays included): the unit passes are sized in.
+    pub planned_samples: u64,
 }
 
 /// The passes for `pixels` rays from `camera` through `bounds` at `cfg`.
@@ -41,7 +44,8 @@ pub struct PassPlan {
 /// a shadow ray across the box. A frame of more than twice `pass_samples`
 /// samples is split into passes of about `pass_samples` each, so that the
 /// caller regains control (to stop on Ctrl-C) every pass; shorter frames
-/// keep one pass.
+/// keep one pass. Samples here are planned ones (`planned_samples`), an
+/// upper bound on those the rays take.
 pub fn plan(
     cfg: &RenderConfig,
     bounds: &Bounds,
@@ -82,6 +86,7 @@ pub fn plan(
         pass_steps: pass_steps as u32,
         max_steps_needed: max_n,
         per_pixel_state: passes > 1 || cfg.model == Model::Isosurface,
+        planned_samples: per_step.saturating_mul(max_n),
     })
 }
 

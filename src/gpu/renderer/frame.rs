@@ -71,7 +71,7 @@ impl GpuRenderer {
         )?;
         self.depth_ready = cfg.model == Model::Isosurface;
         self.depth_unit = world_unit(&self.volume.as_ref().expect("checked by check_ready").bounds);
-        self.measure_speed(samples, started.elapsed());
+        self.measure_speed(passes.planned_samples, started.elapsed());
         let uniforms = passes.passes as u64 * std::mem::size_of::<Params>() as u64 + STATS_BYTES;
         let stats = FrameStats { truncated_needed, uploaded_bytes: 0, passes: passes.passes, samples };
         Ok(self.finish_frame(stats, uniforms))

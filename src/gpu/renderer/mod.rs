@@ -19,12 +19,15 @@ use std::sync::Arc;
 /// samples and made the frame 25% slower.
 const SKIP_MIN_EMPTY: f64 = 0.25;
 
-/// Seconds one pass of a long frame should take: how long a Ctrl-C waits.
-const PASS_SECONDS: f64 = 0.25;
+/// Seconds one pass of a long frame should take: about how long a Ctrl-C
+/// waits. Each pass costs every ray a state load and store and the device
+/// an idle moment: at 1 s the preset benchmark's longest frame
+/// (ultra_quality, 4.6 s on lavapipe) takes 5 passes and 0.2-1.1% longer.
+const PASS_SECONDS: f64 = 1.0;
 
-/// Samples per second assumed before a frame has been timed (lavapipe on
-/// two cores renders 4-8e7; GPUs are faster and soon measured).
-const INITIAL_SAMPLES_PER_SECOND: f64 = 4e7;
+/// Planned samples per second assumed before a frame has been timed
+/// (lavapipe on two cores: about 1e8; GPUs are faster and soon measured).
+const INITIAL_SAMPLES_PER_SECOND: f64 = 1e8;
 
 /// Bytes of the frame statistics: the largest step count a truncated ray
 /// needed, and the samples taken (two words).
@@ -87,7 +90,7 @@ pub struct GpuRenderer {
     depth_ready: bool,
     /// World length of the shader's length unit in that frame.
     depth_unit: f64,
-    /// Samples per second the last long frame took: sizes passes for time.
+    /// Planned samples per second of the last long frame: sizes passes for time.
     samples_per_second: f64,
     /// The process that made the device objects (see `check_process`).
     pid: u32,
@@ -177,7 +180,8 @@ impl GpuRenderer {
         (self.samples_per_second * PASS_SECONDS).clamp(1e6, 1e13) as u64
     }
 
-    /// Keeps the device's speed from frames long enough to time.
+    /// Keeps the device's speed (planned samples per second) from frames
+    /// long enough to time.
     fn measure_speed(&mut self, samples: u64, elapsed: std::time::Duration) {
         let secs = elapsed.as_secs_f64();
         if samples >= 1 << 20 && secs > 0.01 {
