@@ -4,6 +4,7 @@
 //! is checked again here: bad input is a ValueError/TypeError, never a panic.
 
 use super::config::PyRenderConfig;
+use crate::error::{try_collect, try_vec};
 use crate::quantize::to_u8;
 use super::args::integer;
 use super::errors::{guarded, run_released, to_py, to_py_in};
@@ -302,7 +303,7 @@ pub fn quantize<'py>(py: Python<'py>, rgba: PyReadonlyArray3<'py, f32>, straight
         return Err(PyValueError::new_err(format!("expected shape (H, W, 4), got {s:?}")));
     }
     let src = rgba.as_slice().map_err(|_| PyValueError::new_err("image must be C-contiguous"))?;
-    let mut out = vec![0u8; src.len()];
+    let mut out = try_vec(src.len(), 0u8, "the 8-bit image").map_err(to_py)?;
     to_u8(src, straight, &mut out);
     PyArray1::from_vec(py, out).reshape([s[0], s[1], 4])
 }
@@ -367,7 +368,8 @@ pub fn integrate_reference<'py>(
         })
     });
     let img = result.map_err(|e| raised_in_progress.take().unwrap_or(e))?;
-    let flat: Vec<f64> = img.rgba.into_iter().flatten().collect();
+    let n = img.rgba.len() * 4;
+    let flat = try_collect(n, "the float64 image", img.rgba.into_iter().flatten()).map_err(to_py)?;
     let shape = [height as usize, width as usize];
     Ok((
         PyArray1::from_vec(py, flat).reshape([shape[0], shape[1], 4])?,
