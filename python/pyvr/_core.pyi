@@ -1,6 +1,6 @@
 """Type stubs for the Rust extension module pyvr._core."""
 
-from typing import Any, Dict, List, Optional, Tuple
+from typing import Any, Callable, Dict, List, Optional, Tuple
 
 import numpy as np
 import numpy.typing as npt
@@ -110,6 +110,7 @@ def integrate_reference(
     adaptive_tolerance: float = 0.0,
     value_map: Tuple[float, float] = (1.0, 0.0),
     clip: Optional[Tuple[Vec3, Vec3]] = None,
+    progress: Optional[Callable[[int], Any]] = None,
 ) -> Tuple[npt.NDArray[np.float64], int, npt.NDArray[np.float64]]: ...
 def colormap_table(name: str) -> Optional[npt.NDArray[np.float64]]: ...
 def colormap_names() -> List[str]: ...
