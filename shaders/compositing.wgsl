@@ -142,8 +142,12 @@ fn emitted_colour(x: f32, c: vec3<f32>) -> vec3<f32> {
 
 // The index of the first segment past the empty cell holding midpoint `mid`
 // (a thousandth of a step early, so that rounding can never skip a sample of
-// the next cell), or 0xffffffff when its cell is not empty.
-fn leap_past_empty(r: Ray, i: u32, si: u32, mid: f32, tc: vec3<f32>) -> u32 {
+// the next cell), or 0xffffffff when its cell is not empty. `tail` is how
+// much of a skipped segment beyond its midpoint must lie in the cell, in
+// steps: 0 for midpoint samples, 0.5 for pre-integrated segments, whose
+// whole length counts (all their values are then in the cell's range, which
+// the transfer function leaves at opacity 0).
+fn leap_past_empty(r: Ray, i: u32, si: u32, mid: f32, tc: vec3<f32>, tail: f32) -> u32 {
     var dir = r.d;
     if (BACK_TO_FRONT) {
         dir = -r.d;
@@ -155,11 +159,11 @@ fn leap_past_empty(r: Ray, i: u32, si: u32, mid: f32, tc: vec3<f32>) -> u32 {
     let h = P.step_size;
     if (BACK_TO_FRONT) {
         // Highest segment whose midpoint lies before the cell's near side.
-        let k = ceil((mid - exit) / h - 0.5 - r.shift + 1e-3) - 1.0;
+        let k = ceil((mid - exit) / h - 0.5 + tail - r.shift + 1e-3) - 1.0;
         let ki = i32(clamp(k, -1.0, f32(si) - 1.0));
         return u32(clamp(i32(r.n) - 1 - ki, i32(i) + 1, i32(r.end)));
     }
-    let k = ceil((mid + exit) / h - 0.5 - r.shift - 1e-3);
+    let k = ceil((mid + exit) / h - 0.5 - tail - r.shift - 1e-3);
     return u32(clamp(k, f32(i + 1u), f32(r.end)));
 }
 
@@ -262,11 +266,19 @@ fn march_integrate(r: Ray) {
         var g: Segment;
         if (PRE_INTEGRATED && sp.y == h) {
             g = preintegrated_segment(r, si, sp.x, &s);
+            if (SKIP_EMPTY && !(g.x > 0.0)) {
+                let next = leap_past_empty(r, i, si, mid, tc, 0.5);
+                if (next != 0xffffffffu) {
+                    taken += 1u;
+                    i = next - 1u;
+                    continue;
+                }
+            }
             taken += 1u;
         } else {
             g = midpoint_segment(volume_texel(tc), sp.y);
             if (SKIP_EMPTY && !(g.x > 0.0)) {
-                let next = leap_past_empty(r, i, si, mid, tc);
+                let next = leap_past_empty(r, i, si, mid, tc, 0.0);
                 if (next != 0xffffffffu) {
                     taken += 1u;
                     i = next - 1u;

@@ -54,6 +54,18 @@ def test_skipping_does_not_change_the_image(name):
         assert r.empty_fraction() > 0.2 and n_skip < 0.8 * n_plain
 
 
+@pytest.mark.parametrize("name", ["sparse_one_step", "narrow_band", "sparse_normals"])
+@pytest.mark.parametrize("order", ["front_to_back", "back_to_front"])
+def test_pre_integration_skips_too_and_keeps_the_image(name, order):
+    # Pre-integrated segments leap only over cells that hold them whole.
+    vol_f, otf_f = SCENES[name]
+    cfg = RenderConfig.balanced().replace(pre_integrated=True, order=order)
+    (plain, n_plain, _), (skipped, n_skip, r) = both(vol_f(), otf_f(), config=cfg)
+    assert plain[..., 3].max() > 0.3
+    assert np.abs(plain - skipped).max() < 1 / 255
+    assert n_skip < 0.8 * n_plain, (n_plain, n_skip)
+
+
 def test_empty_transfer_function_takes_almost_no_samples():
     vol = Volume(create_sample_volume(64, "sphere"))
     (img_plain, n_plain, _), (img, n_skip, r) = both(vol, OpacityTransferFunction.linear(0.0, 0.0))

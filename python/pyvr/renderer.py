@@ -268,13 +268,14 @@ def _frame_samples(bounds, cfg: RenderConfig, width: int, height: int) -> float:
     return float(width) * float(height) * per_ray
 
 
-def _warn_if_long(what: str, samples: float, limit: float) -> None:
+def _warn_if_long(what: str, samples: float, limit: float, stacklevel: int) -> None:
+    """``stacklevel`` counts from the caller of _warn_if_long (1: that caller)."""
     if samples > limit:
         warnings.warn(
             f"{what} may take up to {samples:.3g} samples (step_size, max_steps and image size decide this), "
             "which can take minutes; press Ctrl-C to stop it",
             UserWarning,
-            stacklevel=4,
+            stacklevel=stacklevel + 1,
         )
 
 
@@ -565,7 +566,8 @@ class VolumeRenderer:
             self.set_transfer_functions(ColorTransferFunction(), OpacityTransferFunction())
         cfg = self._config_snapshot if config is None else config
         size = (self.width, self.height) if size is None else size
-        _warn_if_long("this frame", _frame_samples(self._bounds, cfg, *size), LONG_FRAME_SAMPLES)
+        # Caller chain: user -> render (or _accumulated -> render) -> _serialised -> here.
+        _warn_if_long("this frame", _frame_samples(self._bounds, cfg, *size), LONG_FRAME_SAMPLES, stacklevel=4)
         if (self._engine.width, self._engine.height) != size:
             # Output buffers only; the volume, table and pipelines stay.
             self._engine.resize(*size)
@@ -707,7 +709,7 @@ class VolumeRenderer:
         check_fits(f"render_float64 at {width}x{height}", 160.0 * width * height + self.volume.data.size * 4.0,
                    "render a smaller size=(width, height)")
         samples = _frame_samples(self._bounds, cfg, width, height) * (8 if adaptive_tolerance > 0 else 1)
-        _warn_if_long("render_float64", samples, LONG_FLOAT64_SAMPLES)
+        _warn_if_long("render_float64", samples, LONG_FLOAT64_SAMPLES, stacklevel=2)
         make_bar = _progress(progress if progress is not None or samples > 2e8 else False, "row", "render_float64")
         bar = None if make_bar is None else make_bar(height)
         try:

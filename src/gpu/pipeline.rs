@@ -55,8 +55,8 @@ impl Variant {
         Variant {
             // Which texture holds the normals only matters where they are read.
             layout: Layout { normals_in_volume: layout.normals_in_volume && shading == Shading::Normals, ..layout },
-            // Pre-integrated segments are not split at cell borders.
-            skip_empty: skip_empty && model.skips_cells() && !cfg.pre_integrated,
+            // Pre-integrated segments leap only over cells holding them whole.
+            skip_empty: skip_empty && model.skips_cells(),
             shading,
             // The light's kind only matters when a diffuse term is computed.
             point_light: shading != Shading::AmbientOnly && light == LightKind::Point,
