@@ -6,6 +6,7 @@ one check every outcome must pass."""
 import base64
 import os
 import random
+import re
 import struct
 import zlib
 
@@ -100,5 +101,12 @@ def check_one(path) -> str:
         return "refused"
     assert im.data.ndim == 3 and all(d >= 1 for d in im.data.shape), im.data.shape
     assert np.all(np.isfinite(im.spacing)) and np.all(im.spacing > 0), im.spacing
-    assert im.data.nbytes <= 64 << 20, im.data.shape  # mutations never state more than this... except extents
+    with open(path, "rb") as f:
+        stated = re.search(rb'WholeExtent="([^"]*)"', f.read())
+    if stated is not None:
+        e = [int(v) for v in stated.group(1).split()]
+        assert im.data.shape == (e[1] - e[0] + 1, e[3] - e[2] + 1, e[5] - e[4] + 1), (stated, im.data.shape)
+    # Files of a few KiB (bombs included) never yield more: nothing is
+    # inflated beyond what the extent needs, and data must match the extent.
+    assert im.data.nbytes <= 64 << 20, im.data.shape
     return "ok"
