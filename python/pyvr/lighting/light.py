@@ -51,11 +51,12 @@ class Light:
 
     @classmethod
     def directional(cls, direction, ambient: float = 0.2, diffuse: float = 0.8, distance: float = 10.0) -> "Light":
-        d = _f32(direction)
-        n = np.linalg.norm(d)
-        if not (np.isfinite(n) and n > 0):
-            raise ValueError(f"direction must be a non-zero vector of finite numbers, got {direction!r}")
-        d = d / n
+        d = np.asarray(direction, dtype=np.float64).reshape(-1)
+        m = np.max(np.abs(d)) if d.shape == (3,) else np.nan
+        if not (np.isfinite(m) and m > 0):
+            raise ValueError(f"direction must be a non-zero vector of three finite numbers, got {direction!r}")
+        d = d / m  # scaled first: a tiny or huge vector keeps its direction
+        d = _f32(d / np.linalg.norm(d))
         return cls(position=-d * np.float32(distance), target=_f32([0, 0, 0]), ambient_intensity=ambient, diffuse_intensity=diffuse)
 
     @classmethod
