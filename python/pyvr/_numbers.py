@@ -3,6 +3,7 @@
 step size is a mistake, not 1.0)."""
 
 import numbers
+from typing import Optional
 
 import numpy as np
 
@@ -26,13 +27,13 @@ def finite_vec3(name: str, x) -> None:
         raise ValueError(f"{name} must be finite, got {x}")
 
 
-def check_count(name: str, x, *, low: int = 1, high: int) -> int:
-    """``x`` as an int in [low, high]: TypeError for non-integers (bool
-    included), ValueError naming the range otherwise."""
+def check_count(name: str, x, *, low: int = 1, high: Optional[int] = None) -> int:
+    """``x`` as an int in [low, high] (no upper bound for None): TypeError
+    for non-integers (bool included), ValueError naming the range otherwise."""
     if isinstance(x, (bool, np.bool_)) or not isinstance(x, (numbers.Integral, np.integer)):
         raise TypeError(f"{name} must be an integer, got {type(x).__name__}")
     if int(x) < low:
         raise ValueError(f"{name} must be at least {low}, got {x}")
-    if int(x) > high:
+    if high is not None and int(x) > high:
         raise ValueError(f"{name} must be at most {high}, got {x}")
     return int(x)

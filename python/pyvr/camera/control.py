@@ -5,7 +5,7 @@ from typing import Iterator, List, Optional, Tuple
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from .._numbers import is_number, is_vec3
+from .._numbers import check_count, is_number, is_vec3
 from .camera import Camera, validate_camera_angles
 
 
@@ -137,13 +137,6 @@ def get_camera_pos_from_params(params: Camera):
     )
 
 
-def _check_frames(n_frames) -> None:
-    if isinstance(n_frames, bool) or not isinstance(n_frames, (int, np.integer)):
-        raise TypeError(f"n_frames must be an integer, got {type(n_frames).__name__}")
-    if n_frames < 1:
-        raise ValueError("n_frames must be at least 1")
-
-
 class CameraPath:
     """Keyframed camera animation: every parameter, angles included, is
     interpolated linearly between neighbouring keyframes.
@@ -198,8 +191,7 @@ class CameraPath:
 
     def iter_cameras(self, n_frames: int, *, endpoint: bool = True) -> Iterator[Camera]:
         """The cameras of ``cameras()``, made one at a time (long paths)."""
-        _check_frames(n_frames)
-        return self._iter(int(n_frames), endpoint)
+        return self._iter(check_count("n_frames", n_frames), endpoint)
 
     def _iter(self, n_frames: int, endpoint: bool) -> Iterator[Camera]:
         if n_frames == 1:
