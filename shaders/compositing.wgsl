@@ -264,28 +264,21 @@ fn march_integrate(r: Ray) {
         let p = point_at(r, mid);
         let tc = tex_of(p);
         var g: Segment;
+        // How much of a skipped segment past its midpoint must be empty.
+        var tail = 0.0;
         if (PRE_INTEGRATED && sp.y == h) {
             g = preintegrated_segment(r, si, sp.x, &s);
-            if (SKIP_EMPTY && !(g.x > 0.0)) {
-                let next = leap_past_empty(r, i, si, mid, tc, 0.5);
-                if (next != 0xffffffffu) {
-                    taken += 1u;
-                    i = next - 1u;
-                    continue;
-                }
-            }
-            taken += 1u;
+            tail = 0.5;
         } else {
             g = midpoint_segment(volume_texel(tc), sp.y);
-            if (SKIP_EMPTY && !(g.x > 0.0)) {
-                let next = leap_past_empty(r, i, si, mid, tc, 0.0);
-                if (next != 0xffffffffu) {
-                    taken += 1u;
-                    i = next - 1u;
-                    continue;
-                }
+        }
+        taken += 1u;
+        if (SKIP_EMPTY && !(g.x > 0.0)) {
+            let next = leap_past_empty(r, i, si, mid, tc, tail);
+            if (next != 0xffffffffu) {
+                i = next - 1u;
+                continue;
             }
-            taken += 1u;
         }
         let add = lit(g, p, r.d, &taken);
         if (composite(&s, g.x, add, taken)) {
