@@ -48,6 +48,20 @@ struct Params {
     // The box rays march in (a crop, or [0, extent]), same frame as positions.
     clip_lo: vec4<f32>,
     clip_hi: vec4<f32>,
+    // World position -> coordinates in the bound texture: p * scale + offset
+    // (a brick's texture covers only its voxels and their ghosts).
+    tex_scale: vec4<f32>,
+    tex_offset: vec4<f32>,
+    // A brick's core box, whose segments it marches (when bricked == 1).
+    core_lo: vec4<f32>,
+    core_hi: vec4<f32>,
+    bricked: u32,
+    // Finished rays write their raw state (partial images for compositing).
+    keep_state: u32,
+    // The frame is this one dispatch (no ray needs `ray_done`).
+    only_dispatch: u32,
+    // Finish every ray that is still open from its state, sampling nothing.
+    resolve: u32,
 };
 
 @group(0) @binding(BINDING_PARAMS) var<uniform> P: Params;

@@ -238,6 +238,11 @@ fn end_integration(r: Ray, s: ptr<function, Integration>, stopped: bool, taken: 
     if (!stopped) {
         report_truncation(r);
     }
+    if (P.keep_state == 1u) {
+        // A partial image: premultiplied colour and optical depth.
+        finish(r, vec4<f32>((*s).color, (*s).tau));
+        return;
+    }
     // 1 - exp(-tau) without cancellation: a faint ray keeps its alpha (and
     // so its straight colour C / alpha) instead of rounding to 0.
     var alpha = select(one_minus_exp_neg((*s).tau), 1.0, (*s).trans == 0.0);

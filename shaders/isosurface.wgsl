@@ -16,17 +16,35 @@ fn march_iso(r: Ray) {
     var taken = 0u;
     var found = false;
     var hit = 0.0;
+    // State: (previous offset, its value, 1 if that value is known, 1 once
+    // the ray has been started).
+    var started = false;
     if (P.first_pass == 0u) {
         let st = ray_state[r.idx];
         prev = st.x;
         prev_v = st.y;
         prev_known = st.z != 0.0;
-    } else {
-        prev_v = value_at(tex_of(point_at(r, 0.0)));
-        taken += 1u;
-        if (!below_iso(prev_v)) {
-            found = true;
+        started = st.w != 0.0;
+    }
+    if (!started && (r.begin < r.end || (r.entry && P.pass_start == 0u))) {
+        started = true;
+        if (r.entry) {
+            prev = 0.0;
+            prev_v = value_at(tex_of(point_at(r, 0.0)));
+            if (!below_iso(prev_v)) {
+                found = true;
+            }
+        } else {
+            // A brick past the entry, reached first (the bricks before it
+            // were skipped as unable to reach the iso value, or are rendered
+            // elsewhere): the last midpoint before its window brackets the
+            // crossing, read from its ghost voxels.
+            let sp = span(r, r.begin - 1u);
+            prev = sp.x + 0.5 * sp.y;
+            prev_v = value_at(tex_of(point_at(r, prev)));
         }
+        prev_known = true;
+        taken += 1u;
     }
     var i = r.begin;
     loop {
@@ -37,7 +55,7 @@ fn march_iso(r: Ray) {
         if (i < r.end) {
             let sp = span(r, i);
             at = sp.x + 0.5 * sp.y;
-        } else if (i == r.n && r.n == r.needed) {
+        } else if (i == r.n && r.n == r.needed && started && P.resolve == 0u) {
             at = r.chord;
         } else {
             break;
@@ -75,7 +93,7 @@ fn march_iso(r: Ray) {
     }
     count_samples(taken);
     if (!found && r.end < r.n) {
-        suspend(r, vec4<f32>(prev, prev_v, select(0.0, 1.0, prev_known), 0.0));
+        suspend(r, vec4<f32>(prev, prev_v, select(0.0, 1.0, prev_known), select(0.0, 1.0, started)));
         return;
     }
     if (!found) {

@@ -59,10 +59,31 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let needed_f = ceil(r.chord / P.step_size - r.shift);
     r.needed = u32(min(needed_f, 4.0e9));
     r.n = min(r.needed, P.max_steps);
-    r.begin = P.pass_start;
-    r.end = r.n;
+    // The segments this dispatch's brick holds, as march indices (which
+    // run from the far end when marching back to front).
+    var w = vec2<u32>(0u, r.n);
+    r.entry = true;
+    if (P.bricked == 1u) {
+        w = brick_window(r, t1);
+        r.entry = w.y > w.x && w.x == 0u;
+        if (w.y <= w.x) {
+            // No segments here: the ray waits for its other bricks (a window
+            // at the ray's end would otherwise finish it before them).
+            w = vec2<u32>(0u);
+        } else if (BACK_TO_FRONT) {
+            w = vec2<u32>(r.n - w.y, r.n - w.x);
+        }
+    }
+    r.begin = w.x + P.pass_start;
+    r.end = w.y;
     if (P.last_pass == 0u) {
-        r.end = min(r.n, P.pass_start + P.pass_steps);
+        r.end = min(w.y, r.begin + P.pass_steps);
+    }
+    if (P.resolve == 1u) {
+        // Every ray not finished yet ends here, from its state.
+        r.begin = r.n;
+        r.end = r.n;
+        r.entry = false;
     }
     if (MODEL == MODEL_ISOSURFACE) {
         march_iso(r);
@@ -71,4 +92,47 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     } else {
         march_integrate(r);
     }
+}
+
+// A brick holds the segments whose nominal midpoints (i + shift + 1/2) steps
+// past the entry lie in its core box [core_lo, core_hi) (faces on the
+// volume's boundary are pushed out to infinity); the first segment belongs
+// to the brick holding the entry, the last to the one holding the exit.
+// Neighbouring bricks compute the shared face's ray parameter from the same
+// f32 plane, so their windows tile the ray: every segment is marched once.
+// Returns segment indices [lo, hi); (0, 0) when the ray misses the brick.
+fn brick_window(r: Ray, t1: f32) -> vec2<u32> {
+    var a0 = r.t0;
+    var a1 = t1;
+    for (var a = 0; a < 3; a++) {
+        if (r.d[a] == 0.0) {
+            if (r.o[a] < P.core_lo[a] || r.o[a] >= P.core_hi[a]) {
+                return vec2<u32>(0u);
+            }
+        } else {
+            let inv = 1.0 / r.d[a];
+            let ta = (P.core_lo[a] - r.o[a]) * inv;
+            let tb = (P.core_hi[a] - r.o[a]) * inv;
+            a0 = max(a0, min(ta, tb));
+            a1 = min(a1, max(ta, tb));
+        }
+    }
+    if (!(a1 > a0)) {
+        return vec2<u32>(0u);
+    }
+    var lo = 0u;
+    if (a0 > r.t0) {
+        lo = segment_at(r, a0);
+    }
+    var hi = r.n;
+    if (a1 < t1) {
+        hi = segment_at(r, a1);
+    }
+    return vec2<u32>(min(lo, r.n), min(hi, r.n));
+}
+
+// The first segment whose nominal midpoint is at or past ray parameter t.
+fn segment_at(r: Ray, t: f32) -> u32 {
+    let k = ceil((t - r.t0) / P.step_size - r.shift - 0.5);
+    return u32(clamp(k, 0.0, 4.0e9));
 }

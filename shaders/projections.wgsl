@@ -36,6 +36,11 @@ fn march_project(r: Ray) {
         return;
     }
     report_truncation(r);
+    if (P.keep_state == 1u) {
+        // A partial image: the state itself, combined across bricks later.
+        finish(r, st);
+        return;
+    }
     if (!(st.y > 0.0)) {
         finish(r, vec4<f32>(0.0));
         return;

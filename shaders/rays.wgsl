@@ -41,6 +41,8 @@ struct Ray {
     needed: u32,
     begin: u32,
     end: u32,
+    // This dispatch's segments start at the ray's entry.
+    entry: bool,
 };
 
 // Segment i: (offset of its start from t0, its length).
@@ -57,14 +59,16 @@ fn point_at(r: Ray, offset: f32) -> vec3<f32> {
     return r.o + r.d * (r.t0 + offset);
 }
 
+// A position's coordinates in the bound volume texture (the whole volume,
+// or one brick of it with its ghost voxels).
 fn tex_of(p: vec3<f32>) -> vec3<f32> {
-    return (p * P.inv_extent.xyz).zyx;
+    return (p * P.tex_scale.xyz + P.tex_offset.xyz).zyx;
 }
 
 // Where a finished ray's pixel goes; rays that continue keep their state.
 fn finish(r: Ray, rgba: vec4<f32>) {
     out_rgba[r.idx] = rgba;
-    if (!(P.first_pass == 1u && P.last_pass == 1u)) {
+    if (P.only_dispatch == 0u) {
         ray_done[r.idx] = 1u;
     }
 }

@@ -46,7 +46,7 @@ fn empty_cell_exit(tc: vec3<f32>, d: vec3<f32>) -> f32 {
         return -1.0;
     }
     // Voxel units per unit of t along the ray, in texture axis order.
-    let du = (d * P.inv_extent.xyz).zyx * dims;
+    let du = (d * P.tex_scale.xyz).zyx * dims;
     var exit = 3.0e38;
     for (var a = 0; a < 3; a++) {
         if (du[a] > 0.0) {

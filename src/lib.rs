@@ -4,6 +4,7 @@
 //! Everything here is plain Rust; the Python binding lives in `python/` and
 //! is compiled only with the `python` feature.
 
+pub mod bricks;
 pub mod config;
 pub mod error;
 pub mod gpu;

@@ -304,7 +304,21 @@ class VolumeRenderer:
     renders; changing the camera, light or config uploads no volume data.
     """
 
-    def __init__(self, width: int = 512, height: int = 512, config: Optional[RenderConfig] = None, light: Optional[Light] = None):
+    def __init__(self, width: int = 512, height: int = 512, config: Optional[RenderConfig] = None, light: Optional[Light] = None,
+                 *, brick_shape: Optional[tuple] = None, memory_budget: Optional[int] = None):
+        """``brick_shape`` and ``memory_budget`` (bytes) decide how volumes
+        that need bricks are cut and kept (pyvr.bricks): a volume is bricked
+        when its data is not in memory (memmap, zarr, dask, xarray), when it
+        exceeds the device's 3-D texture or buffer limit or the budget, or
+        whenever ``brick_shape`` is given (cores of that many voxels).
+        Bricks stay on the device while they fit in ``memory_budget``
+        (default 4 GiB); beyond it each frame streams them from the source."""
+        if memory_budget is not None:
+            check_count("memory_budget", memory_budget)
+        if brick_shape is not None:
+            from .bricks import brick_shape_for
+
+            brick_shape_for((1, 1, 1), 1, 0, 2, brick_shape)
         for name, v in (("width", width), ("height", height)):
             check_count(name, v, high=2**32 - 1)
         if config is None:
@@ -333,6 +347,9 @@ class VolumeRenderer:
         self._tf_value_range = None
         self._value_map = (1.0, 0.0)
         self._crop = None
+        self._brick_shape = brick_shape
+        self._memory_budget = memory_budget
+        self._bricked = None
         self.set_config(config)
         self.set_light(light)
         self._has_tf = False
@@ -350,7 +367,9 @@ class VolumeRenderer:
         skip = self._engine_obj.skip_empty
         engine = _core.Renderer(self._engine_obj.width, self._engine_obj.height)
         engine.skip_empty = skip
-        if self.volume is not None:
+        if self._bricked is not None:
+            self._bricked.layout(engine)
+        elif self.volume is not None:
             engine.set_volume(prepare_voxels(self.volume.data), prepare_normals(self.volume.normals),
                               *self._bounds, self._precision)
         if self._lut is not None:
@@ -383,6 +402,10 @@ class VolumeRenderer:
 
         ``counters()["volume_storage"]`` names the stored format.
         """
+        from . import bricks
+
+        if not isinstance(volume, Volume) and (isinstance(volume, np.ndarray) or bricks.is_lazy(volume)):
+            volume = bricks.as_volume(volume)
         if not isinstance(volume, Volume):
             raise TypeError(
                 f"Expected Volume instance, got {type(volume)}. Create a Volume instance: "
@@ -391,14 +414,62 @@ class VolumeRenderer:
         volume.validate()
         if precision not in ("float32", "float16"):
             raise ValueError(f"precision must be 'float32' or 'float16', got {precision!r}")
-        _check_volume_fits(volume, precision)
-        data = prepare_voxels(volume.data)
-        normals = prepare_normals(volume.normals)
-        self._engine.set_volume(data, normals, _vec(volume.min_bounds), _vec(volume.max_bounds), precision)
+        bounds = (_vec(volume.min_bounds), _vec(volume.max_bounds))
+        if self._needs_bricks(volume, precision):
+            ghost = bricks.ghost_for(self._config_snapshot.step_size, bounds, volume.data.shape)
+            brick = bricks.BrickedVolume(
+                volume.data, volume.normals, volume.data.shape, bounds, precision, None, ghost,
+                bricks.DEFAULT_MEMORY_BUDGET if self._memory_budget is None else self._memory_budget,
+            )
+            self._layout_bricks(brick)
+        else:
+            _check_volume_fits(volume, precision)
+            data = prepare_voxels(volume.data)
+            normals = prepare_normals(volume.normals)
+            self._engine.set_volume(data, normals, *bounds, precision)
+            self._bricked = None
         self._precision = precision
         self.volume = volume
         self._bounds = (_vec(volume.min_bounds), _vec(volume.max_bounds))
         self._update_value_map()
+
+    def _needs_bricks(self, volume: Volume, precision: str) -> bool:
+        from . import bricks
+
+        if self._brick_shape is not None or bricks.is_lazy(volume.data) or bricks.is_lazy(volume.normals):
+            return True
+        limits = device_limits()
+        texel = 4 if isinstance(volume.data, np.ma.MaskedArray) else _storage_dtype(volume.data.dtype).itemsize
+        if precision == "float16" and texel == 4:
+            texel = 2 if volume.normals is None else 8
+        elif volume.normals is not None:
+            texel += 4
+        device_bytes = int(np.prod(volume.data.shape, dtype=np.int64)) * texel
+        budget = bricks.DEFAULT_MEMORY_BUDGET if self._memory_budget is None else self._memory_budget
+        return (max(volume.data.shape) > limits["max_texture_dimension_3d"]
+                or device_bytes > min(limits["max_buffer_size"], budget))
+
+    def _layout_bricks(self, brick) -> None:
+        """Cuts ``brick``'s volume for this device and uploads (or indexes) its bricks."""
+        from .bricks import brick_shape_for
+
+        limits = device_limits()
+        brick.core = brick_shape_for(brick.shape, brick.texel_bytes(), brick.ghost,
+                                     limits["max_texture_dimension_3d"], self._brick_shape)
+        self._bricked = None
+        brick.layout(self._engine)
+        self._bricked = brick
+
+    @property
+    def bricks(self) -> Optional[dict]:
+        """How the loaded volume is bricked (None: one texture): core shape,
+        ghost voxels, brick count, whether the bricks stay on the device, and
+        the device bytes they take."""
+        b = self._bricked
+        if b is None:
+            return None
+        return {"brick_shape": b.core, "ghost": b.ghost, "count": len(b.ranges), "resident": b.resident,
+                "device_bytes": b.device_bytes()}
 
     def set_camera(self, camera: Camera) -> None:
         """Use this camera; later changes to the object need another set_camera."""
@@ -577,7 +648,18 @@ class VolumeRenderer:
             camera_args = _camera_tuple(camera)
         else:
             camera_args = self._camera_args
-        img, stats = self._engine.render(camera_args, self._light_args, cfg)
+        if self._bricked is not None:
+            from .bricks import ghost_for
+
+            b = self._bricked
+            need = ghost_for(cfg.step_size, b.bounds, b.shape)
+            if need > b.ghost:
+                # Longer steps reach further into the neighbours: re-cut.
+                b.ghost = need
+                self._layout_bricks(b)
+            img, stats = b.render(self._engine, camera_args, self._light_args, cfg)
+        else:
+            img, stats = self._engine.render(camera_args, self._light_args, cfg)
         self.last_frame_stats = stats
         needed = stats["truncated_needed"]
         if needed:

@@ -5,6 +5,7 @@
 //! extent <= 1 whatever the scene's scale: f32 neither overflows for a scene
 //! measured in light years nor underflows for one in femtometres.
 
+use crate::bricks::BrickGrid;
 use crate::config::RenderConfig;
 use crate::preintegrate;
 use crate::scene::{Bounds, RayBasis, Light, LightKind};
@@ -72,6 +73,19 @@ uniform_block! {
         /// The box rays march in (a crop, or the whole volume).
         pub clip_lo: [f32; 4],
         pub clip_hi: [f32; 4],
+        /// World position -> coordinates in the bound texture (p * scale + offset).
+        pub tex_scale: [f32; 4],
+        pub tex_offset: [f32; 4],
+        /// A brick's core box (when `bricked`).
+        pub core_lo: [f32; 4],
+        pub core_hi: [f32; 4],
+        pub bricked: u32,
+        /// Finished rays write their raw state: a partial image.
+        pub keep_state: u32,
+        /// The frame is one dispatch.
+        pub only_dispatch: u32,
+        /// Finish the rays still open, sampling nothing.
+        pub resolve: u32,
     }
 }
 
@@ -153,7 +167,39 @@ impl Params {
             value_pad: [0.0; 2],
             clip_lo: v4((clip.min - b.min) * s),
             clip_hi: v4((clip.max - b.min) * s),
+            tex_scale: v4(1.0 / ext),
+            tex_offset: [0.0; 4],
+            core_lo: [0.0; 4],
+            core_hi: [0.0; 4],
+            bricked: 0,
+            keep_state: 0,
+            only_dispatch: 0,
+            resolve: 0,
         }
+    }
+
+    /// This frame's block for the brick of `grid` numbered `index`, whose
+    /// texture holds its padded voxels. The shared faces of neighbouring
+    /// bricks come out as the same f32 planes (the same integer through the
+    /// same arithmetic); faces on the volume's boundary move out to
+    /// infinity, leaving the ray's own box as the limit there.
+    pub fn for_brick(&self, bounds: &Bounds, grid: &BrickGrid, index: usize) -> Params {
+        let s = 1.0 / world_unit(bounds);
+        let ext = bounds.extent() * s;
+        let ext = [ext.x, ext.y, ext.z];
+        let (core, padded) = (grid.core_range(index), grid.padded_range(index));
+        let mut p = *self;
+        for a in 0..3 {
+            let n = grid.dims[a] as f64;
+            let stored = (padded[a][1] - padded[a][0]) as f64;
+            p.tex_scale[a] = finite_f32(n / (ext[a] * stored));
+            p.tex_offset[a] = (-(padded[a][0] as f64) / stored) as f32;
+            let plane = |v: usize| (v as f64 / n * ext[a]) as f32;
+            p.core_lo[a] = if core[a][0] == 0 { -f32::MAX } else { plane(core[a][0]) };
+            p.core_hi[a] = if core[a][1] == grid.dims[a] { f32::MAX } else { plane(core[a][1]) };
+        }
+        p.bricked = 1;
+        p
     }
 }
 

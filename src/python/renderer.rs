@@ -135,6 +135,15 @@ fn lut_rows(lut: &PyReadonlyArray2<'_, f32>) -> PyResult<Vec<[f32; 4]>> {
     Ok(flat.chunks_exact(4).map(|c| [c[0], c[1], c[2], c[3]]).collect())
 }
 
+fn stats_dict<'py>(py: Python<'py>, stats: &crate::gpu::FrameStats) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("truncated_needed", stats.truncated_needed)?;
+    d.set_item("uploaded_bytes", stats.uploaded_bytes)?;
+    d.set_item("passes", stats.passes)?;
+    d.set_item("samples", stats.samples)?;
+    Ok(d)
+}
+
 #[pyclass(name = "Renderer", module = "pyvr._core")]
 pub struct PyRenderer {
     /// Dropped only in the process that made it (see Drop).
@@ -237,12 +246,88 @@ impl PyRenderer {
         let inner = &mut *self.inner;
         let (img, stats) = run_released(py, |stop| inner.render_interruptible(&camera, &light, &cfg, stop))?;
         let arr = PyArray1::from_vec(py, img).reshape([h as usize, w as usize, 4])?;
-        let d = PyDict::new(py);
-        d.set_item("truncated_needed", stats.truncated_needed)?;
-        d.set_item("uploaded_bytes", stats.uploaded_bytes)?;
-        d.set_item("passes", stats.passes)?;
-        d.set_item("samples", stats.samples)?;
-        Ok((arr, d))
+        Ok((arr, stats_dict(py, &stats)?))
+    }
+
+    /// Replaces the volume by an empty bricked one of shape `dims` in the
+    /// box (min_bounds, max_bounds), in bricks of `core` voxels with `ghost`
+    /// voxels around each; bricks are then uploaded with `set_brick`.
+    fn set_brick_layout(
+        &mut self,
+        dims: (usize, usize, usize),
+        min_bounds: Vec3,
+        max_bounds: Vec3,
+        core: (usize, usize, usize),
+        ghost: usize,
+    ) -> PyResult<()> {
+        let b = bounds_from(min_bounds, max_bounds)?;
+        guarded(|| self.inner.set_brick_layout(dims.into(), b, core.into(), ghost).map_err(to_py))
+    }
+
+    /// Brick count, and each brick's padded voxel ranges ((lo, hi) per axis).
+    fn brick_ranges(&self) -> PyResult<Vec<[[usize; 2]; 3]>> {
+        let g = self.inner.brick_grid().ok_or_else(|| PyValueError::new_err("no bricked volume is loaded"))?;
+        Ok((0..g.len()).map(|i| g.padded_range(i)).collect())
+    }
+
+    /// Uploads brick `index` from its padded voxels (float32, uint8 or uint16).
+    #[pyo3(signature = (index, data, normals, precision = "float32"))]
+    fn set_brick(
+        &mut self,
+        py: Python<'_>,
+        index: usize,
+        data: &Bound<'_, PyAny>,
+        normals: Option<PyReadonlyArray4<'_, f32>>,
+        precision: &str,
+    ) -> PyResult<()> {
+        let precision = Precision::parse(precision).map_err(to_py)?;
+        let inner = &mut *self.inner;
+        with_volume(data, &normals, (0.0, 0.0, 0.0), (1.0, 1.0, 1.0), |view| {
+            run_released(py, |_| inner.set_brick(index, &view, precision))
+        })
+    }
+
+    fn evict_brick(&mut self, index: usize) -> PyResult<()> {
+        self.inner.evict_brick(index).map_err(to_py)
+    }
+
+    fn brick_resident(&self, index: usize) -> bool {
+        self.inner.brick_resident(index)
+    }
+
+    /// Starts a bricked frame; returns the bricks to render, in order.
+    #[pyo3(signature = (camera, light, config, keep_state = false))]
+    fn begin_bricks(
+        &mut self,
+        camera: CameraArgs,
+        light: LightArgs,
+        config: PyRef<'_, PyRenderConfig>,
+        keep_state: bool,
+    ) -> PyResult<Vec<usize>> {
+        let camera = camera_from(&camera);
+        let light = light_from(&light)?;
+        let cfg = config.inner;
+        guarded(|| self.inner.begin_bricks(&camera, &light, &cfg, keep_state).map_err(to_py))
+    }
+
+    /// Marches the current bricked frame's segments in brick `index`.
+    fn render_brick(&mut self, py: Python<'_>, index: usize) -> PyResult<()> {
+        let inner = &mut *self.inner;
+        run_released(py, |stop| inner.render_brick(index, stop))
+    }
+
+    /// Ends the bricked frame: float32 (H, W, 4) (premultiplied RGBA, or
+    /// the rays' states with keep_state) and the frame statistics.
+    fn end_bricks<'py>(&mut self, py: Python<'py>) -> PyResult<(Bound<'py, PyArray3<f32>>, Bound<'py, PyDict>)> {
+        let (w, h) = self.inner.size();
+        let inner = &mut *self.inner;
+        let (img, stats) = run_released(py, |_| {
+            let mut out = try_vec(w as usize * h as usize * 4, 0.0f32, "the image")?;
+            let stats = inner.end_bricks(&mut out)?;
+            Ok((out, stats))
+        })?;
+        let arr = PyArray1::from_vec(py, img).reshape([h as usize, w as usize, 4])?;
+        Ok((arr, stats_dict(py, &stats)?))
     }
 
     /// Life-time counters: frames, volume_uploads, lut_uploads, uploaded_bytes,
@@ -292,6 +377,16 @@ impl PyRenderer {
     fn device(&self) -> String {
         self.inner.context().describe()
     }
+}
+
+/// Ghost voxels a brick needs around its core for segments of world length
+/// `step` on a grid of world `spacing` (x, y, z).
+#[pyfunction]
+pub fn brick_ghost(step: f64, spacing: Vec3) -> PyResult<usize> {
+    if !(step > 0.0 && step.is_finite()) || ![spacing.0, spacing.1, spacing.2].iter().all(|s| *s > 0.0 && s.is_finite()) {
+        return Err(PyValueError::new_err(format!("step and spacing must be positive and finite, got {step} and {spacing:?}")));
+    }
+    Ok(crate::bricks::BrickGrid::ghost_for(step, dv(spacing)))
 }
 
 /// Premultiplied float RGBA (H, W, 4) to uint8; `straight` un-premultiplies.

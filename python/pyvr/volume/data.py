@@ -46,15 +46,21 @@ class Volume:
         self.validate()
 
     def validate(self) -> None:
-        if not isinstance(self.data, np.ndarray):
-            raise ValueError("Volume data must be a numpy array")
+        from ..bricks import check_array_like, is_lazy
+
+        if is_lazy(self.data):
+            # Out of memory (memmap, zarr, dask, xarray): read brick by brick.
+            check_array_like(self.data)
+        elif not isinstance(self.data, np.ndarray):
+            raise ValueError("Volume data must be a numpy array, or an array not in memory "
+                             "(numpy memmap, zarr, dask or xarray)")
         if self.data.ndim != 3:
             raise ValueError(f"Volume data must be 3D, got shape {self.data.shape}")
         if (not np.issubdtype(self.data.dtype, np.number) and self.data.dtype != np.bool_) \
                 or np.issubdtype(self.data.dtype, np.complexfloating):
             raise TypeError(f"Volume data must be a real numeric array, got dtype {self.data.dtype}")
         if self.normals is not None:
-            if not isinstance(self.normals, np.ndarray):
+            if not isinstance(self.normals, np.ndarray) and not is_lazy(self.normals):
                 raise ValueError("Normal volume must be a numpy array")
             if not np.issubdtype(self.normals.dtype, np.number) or np.issubdtype(self.normals.dtype, np.complexfloating):
                 raise TypeError(f"normals must be a real numeric array, got dtype {self.normals.dtype}")

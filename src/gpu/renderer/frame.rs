@@ -1,6 +1,6 @@
 //! A renderer's frame: check, plan, bind, dispatch, read back.
 
-use super::{FrameStats, GpuRenderer, SKIP_MIN_EMPTY, STATS_BYTES};
+use super::{Ends, FrameStats, GpuRenderer, SKIP_MIN_EMPTY, STATS_BYTES};
 use crate::config::RenderConfig;
 use crate::gpu::bindings;
 use crate::error::{try_vec, Error};
@@ -58,7 +58,8 @@ impl GpuRenderer {
         let (variant, passes) = self.prepare(camera, light, cfg)?;
         self.bind(variant.layout.hw_filter)?;
         let started = std::time::Instant::now();
-        self.dispatch(variant, params, passes, stop)?;
+        let bind_group = self.bind_group.as_ref().expect("bound above").0.clone();
+        self.dispatch(variant, &bind_group, params, passes, Ends { first: true, last: true }, stop)?;
         let (truncated_needed, samples) = read_buffers(
             &self.ctx,
             &[&self.frame.output.readback, &self.frame.stats_readback],
@@ -89,7 +90,7 @@ impl GpuRenderer {
     }
 
     /// Counts the frame and what it uploaded (pending resources plus `uniforms`).
-    fn finish_frame(&mut self, stats: FrameStats, uniforms: u64) -> FrameStats {
+    pub(super) fn finish_frame(&mut self, stats: FrameStats, uniforms: u64) -> FrameStats {
         let uploaded = std::mem::take(&mut self.pending_upload) + uniforms;
         self.counters.frames += 1;
         self.counters.uploaded_bytes += uploaded;
@@ -114,7 +115,7 @@ impl GpuRenderer {
 
     /// The shader variant and the passes this frame needs, with the ray
     /// state and pre-integration table they use.
-    fn prepare(&mut self, camera: &Camera, light: &Light, cfg: &RenderConfig) -> Result<(Variant, PassPlan), Error> {
+    pub(super) fn prepare(&mut self, camera: &Camera, light: &Light, cfg: &RenderConfig) -> Result<(Variant, PassPlan), Error> {
         let vol = self.volume.as_ref().expect("checked by check_ready");
         let shading = Shading::choose(light, vol.normals.is_some() || vol.normals_in_volume);
         // Texels holding normals are only read through the sampler.
@@ -153,7 +154,7 @@ impl GpuRenderer {
     }
 
     /// Makes the bind group unless the current one still holds every resource.
-    fn bind(&mut self, hw_filter: bool) -> Result<(), Error> {
+    pub(super) fn bind(&mut self, hw_filter: bool) -> Result<(), Error> {
         if self.bind_group.as_ref().is_some_and(|(_, f)| *f == hw_filter) {
             return Ok(());
         }
@@ -196,22 +197,35 @@ impl GpuRenderer {
         Ok(())
     }
 
-    /// Submits the frame's passes; the last copies the image and statistics
-    /// to their readback buffers.
-    fn dispatch(&self, variant: Variant, params: Params, plan: PassPlan, stop: &mut dyn FnMut() -> bool) -> Result<(), Error> {
+    /// Submits a brick's (or the whole volume's) passes; the frame's first
+    /// dispatch clears the statistics and its last copies the image and
+    /// statistics to their readback buffers.
+    pub(super) fn dispatch(
+        &self,
+        variant: Variant,
+        bind_group: &wgpu::BindGroup,
+        params: Params,
+        plan: PassPlan,
+        ends: Ends,
+        stop: &mut dyn FnMut() -> bool,
+    ) -> Result<(), Error> {
         let pipeline = self.pipelines.get(&self.ctx, variant)?;
-        let (bind_group, _) = self.bind_group.as_ref().expect("bound before dispatch");
         let f = &self.frame;
         let ctx = &self.ctx;
-        ctx.queue.write_buffer(&f.stats, 0, &[0u8; STATS_BYTES as usize]);
+        if ends.first {
+            ctx.queue.write_buffer(&f.stats, 0, &[0u8; STATS_BYTES as usize]);
+        }
         let image_bytes = self.width as u64 * self.height as u64 * 16;
         let mut in_flight = None;
         for pass in 0..plan.passes {
+            let first = ends.first && pass == 0;
+            let last = ends.last && pass + 1 == plan.passes;
             let p = Params {
                 pass_start: pass * plan.pass_steps,
                 pass_steps: plan.pass_steps,
-                first_pass: (pass == 0) as u32,
+                first_pass: first as u32,
                 last_pass: (pass + 1 == plan.passes) as u32,
+                only_dispatch: (first && last) as u32,
                 ..params
             };
             // Writes before a submit are ordered with it: each pass sees its own.
@@ -225,7 +239,7 @@ impl GpuRenderer {
                     cpass.set_bind_group(0, bind_group, &[]);
                     cpass.dispatch_workgroups(self.width.div_ceil(WORKGROUP), self.height.div_ceil(WORKGROUP), 1);
                 }
-                if p.last_pass == 1 {
+                if last {
                     enc.copy_buffer_to_buffer(&f.output.storage, 0, &f.output.readback, 0, image_bytes);
                     enc.copy_buffer_to_buffer(&f.stats, 0, &f.stats_readback, 0, STATS_BYTES);
                 }

@@ -1,7 +1,7 @@
 //! A renderer: its resources (src/gpu/resources.rs) and, in frame.rs, its
 //! frame. Resources live as long as the renderer and are replaced only when
 //! their input changes: a camera, light or config change rewrites one
-//! 256-byte uniform block and nothing else.
+//! uniform block and nothing else.
 
 use super::context::{GpuContext, ProcessSlot};
 use crate::error::Error;
@@ -96,9 +96,23 @@ pub struct GpuRenderer {
     pid: u32,
     pending_upload: u64,
     pub counters: Counters,
+    /// A volume in bricks (then `volume` is None).
+    bricks: Option<bricked::Bricks>,
+    brick_frame: Option<BrickFrame>,
 }
 
+mod bricked;
 mod frame;
+
+pub use bricked::BrickFrame;
+
+/// Where a dispatch stands in its frame: the first one starts every ray,
+/// the last one hands the image to the readback buffer.
+#[derive(Clone, Copy, Debug)]
+struct Ends {
+    first: bool,
+    last: bool,
+}
 
 static PIPELINES: ProcessSlot<Result<Arc<Pipelines>, Error>> = ProcessSlot::new();
 
@@ -152,6 +166,8 @@ impl GpuRenderer {
             pid: std::process::id(),
             pending_upload: 0,
             counters: Counters::default(),
+            bricks: None,
+            brick_frame: None,
         })
     }
 
@@ -199,7 +215,7 @@ impl GpuRenderer {
 
     /// Bytes the current volume (and normals) occupy on the GPU.
     pub fn volume_bytes(&self) -> u64 {
-        self.volume.as_ref().map_or(0, |v| v.bytes)
+        self.volume.as_ref().map_or(0, |v| v.bytes) + self.resident_brick_bytes()
     }
 
     /// How the current volume is stored: its texel format, and where the
@@ -260,6 +276,8 @@ impl GpuRenderer {
         let volume = VolumeGpu::upload(&self.ctx, vol, precision)?;
         let total = volume.bytes;
         self.volume = Some(volume);
+        self.bricks = None;
+        self.brick_frame = None;
         self.bind_group = None;
         self.occupancy.source = None;
         if !self.tables.rows.is_empty() {
@@ -289,6 +307,7 @@ impl GpuRenderer {
         if map != self.value_map {
             self.value_map = map;
             self.occupancy.source = None;
+            self.invalidate_brick_occupancy();
             if self.volume.is_some() && !self.tables.rows.is_empty() {
                 self.update_occupancy(OccSource::Lut(self.tables.version))?;
             }

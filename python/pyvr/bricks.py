@@ -1,0 +1,192 @@
+"""Volumes in bricks: larger than one 3-D texture, than a device memory
+budget, or than host memory (numpy memmaps, zarr and dask arrays, xarray
+DataArrays).
+
+The volume is cut into a regular grid of bricks, each stored with ghost
+voxels around it (enough for a half step, an isosurface bracket and the
+gradient's stencil). A frame dispatches the bricks front to back along every
+ray; each marches only the segments of the global, entry-anchored segment
+grid whose midpoints fall inside it, and the rays' state carries from brick
+to brick, so the image equals the single-texture one (tests/test_bricks.py).
+Bricks no sample of which can show under the transfer function are never
+read. When every brick fits within the memory budget they stay on the
+device; otherwise each frame streams them in, one at a time, and host memory
+holds at most one brick (plus its converted copy) at once.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Iterator, Optional, Sequence, Tuple
+
+import numpy as np
+
+#: Core side of a brick chosen by default, in voxels.
+DEFAULT_BRICK_SIDE = 256
+#: Device bytes the bricks of one volume may keep resident by default.
+DEFAULT_MEMORY_BUDGET = 4 << 30
+
+
+def is_lazy(data: Any) -> bool:
+    """True for arrays whose voxels are not (all) in memory: numpy memmaps,
+    zarr arrays, dask arrays, xarray DataArrays."""
+    if isinstance(data, np.memmap):
+        return True
+    if isinstance(data, np.ndarray):
+        return False
+    mod = type(data).__module__.split(".")[0]
+    return mod in ("zarr", "dask", "xarray") and hasattr(data, "shape") and hasattr(data, "dtype")
+
+
+def check_array_like(data: Any) -> None:
+    """A lazy array must look like a 3-D array of real numbers."""
+    shape = getattr(data, "shape", None)
+    if shape is None or len(shape) != 3:
+        raise ValueError(f"Volume data must be 3D, got shape {shape}")
+    dt = np.dtype(data.dtype)
+    if (not np.issubdtype(dt, np.number) and dt != np.bool_) or np.issubdtype(dt, np.complexfloating):
+        raise TypeError(f"Volume data must be a real numeric array, got dtype {dt}")
+
+
+def xarray_bounds(arr: Any) -> Optional[Tuple[np.ndarray, np.ndarray]]:
+    """The box of an xarray DataArray's cell-centred coordinates (evenly
+    spaced ones only), in dimension order; None if it has none."""
+    lo, hi = [], []
+    for dim, n in zip(arr.dims, arr.shape):
+        if dim not in arr.coords or n < 2:
+            return None
+        c = np.asarray(arr.coords[dim].values, dtype=np.float64)
+        step = np.diff(c)
+        if not (np.all(step > 0) and np.allclose(step, step[0], rtol=1e-6)):
+            raise ValueError(
+                f"coordinate {dim!r} must increase evenly to give the voxel spacing, got steps from "
+                f"{step.min():.6g} to {step.max():.6g}"
+            )
+        lo.append(c[0] - step[0] / 2)
+        hi.append(c[-1] + step[0] / 2)
+    return np.array(lo, np.float32), np.array(hi, np.float32)
+
+
+def as_volume(data: Any):
+    """A Volume around an array or lazy array-like; an xarray DataArray's
+    evenly spaced coordinates give the box (cell centres)."""
+    from .volume import Volume
+
+    kw = {}
+    if type(data).__module__.split(".")[0] == "xarray":
+        box = xarray_bounds(data)
+        if box is not None:
+            kw = {"min_bounds": box[0], "max_bounds": box[1]}
+        name = getattr(data, "name", None)
+        if name is not None:
+            kw["name"] = str(name)
+    return Volume(data=data, **kw)
+
+
+def read_block(data: Any, ranges: Sequence[Sequence[int]]) -> np.ndarray:
+    """The voxels ``ranges`` ((lo, hi) per axis) of any supported array, in memory."""
+    sl = tuple(slice(int(lo), int(hi)) for lo, hi in ranges)
+    mod = type(data).__module__.split(".")[0]
+    if mod == "xarray":
+        data = data.data
+        mod = type(data).__module__.split(".")[0]
+    block = data[sl]
+    if mod == "dask":
+        block = block.compute()
+    return np.asarray(block)
+
+
+def brick_shape_for(shape, texel_bytes: int, ghost: int, max_side: int, requested=None) -> Tuple[int, int, int]:
+    """The core shape of a brick: ``requested`` when given, else cubes of
+    DEFAULT_BRICK_SIDE, within the device's texture limit with ghosts."""
+    if requested is not None:
+        core = tuple(int(v) for v in requested)
+        if len(core) != 3 or min(core) < 1:
+            raise ValueError(f"brick_shape must be three positive integers, got {requested!r}")
+    else:
+        core = (DEFAULT_BRICK_SIDE,) * 3
+    limit = max_side - 2 * ghost
+    if limit < 1:
+        raise ValueError(
+            f"bricks need {ghost} ghost voxels a side, which this device's 3-D texture limit of {max_side} "
+            "cannot hold: use a smaller step_size"
+        )
+    return tuple(min(c, limit, n) for c, n in zip(core, shape))
+
+
+class BrickedVolume:
+    """The bricks of one loaded volume and how they reach the device."""
+
+    def __init__(self, data, normals, shape, bounds, precision: str, core, ghost: int, memory_budget: int):
+        self.data = data
+        self.normals = normals
+        self.shape = tuple(int(v) for v in shape)
+        self.bounds = bounds
+        self.precision = precision
+        self.core = core
+        self.ghost = ghost
+        self.memory_budget = memory_budget
+        self.ranges: list = []
+        self.resident = False
+
+    def texel_bytes(self) -> int:
+        from .renderer import _storage_dtype
+
+        t = _storage_dtype(self.data.dtype).itemsize
+        if self.precision == "float16" and t == 4:
+            return 8 if self.normals is not None else 2
+        return t + (4 if self.normals is not None else 0)
+
+    def device_bytes(self) -> int:
+        return sum(int(np.prod([hi - lo for lo, hi in r])) for r in self.ranges) * self.texel_bytes()
+
+    def layout(self, engine) -> None:
+        """Lays the bricks out in ``engine`` and reads each once (for its
+        value ranges, which decide what a frame can skip); keeps them on
+        the device when they fit within the memory budget."""
+        from .renderer import prepare_normals, prepare_voxels
+
+        engine.set_brick_layout(self.shape, *self.bounds, self.core, self.ghost)
+        self.ranges = [tuple(tuple(r) for r in b) for b in engine.brick_ranges()]
+        self.resident = self.device_bytes() <= self.memory_budget
+        for i in range(len(self.ranges)):
+            self.upload(engine, i, prepare_voxels, prepare_normals)
+            if not self.resident:
+                engine.evict_brick(i)
+
+    def upload(self, engine, i: int, prepare_voxels=None, prepare_normals=None) -> None:
+        if prepare_voxels is None:
+            from .renderer import prepare_normals, prepare_voxels
+        r = self.ranges[i]
+        block = prepare_voxels(read_block(self.data, r))
+        normals = None
+        if self.normals is not None:
+            normals = prepare_normals(read_block(self.normals, list(r) + [(0, 3)]))
+        engine.set_brick(i, block, normals, self.precision)
+
+    def bricks_of(self, engine, order) -> Iterator[int]:
+        """Bricks of a frame in order, each on the device while it is used."""
+        for i in order:
+            if not engine.brick_resident(i):
+                self.upload(engine, i)
+            yield i
+            if not self.resident:
+                engine.evict_brick(i)
+
+    def render(self, engine, camera_args, light_args, cfg, keep_state: bool = False, only=None):
+        """One frame through ``engine``; ``only``: render just these bricks
+        (a partial image of them)."""
+        order = engine.begin_bricks(camera_args, light_args, cfg, keep_state)
+        if only is not None:
+            keep = set(only)
+            order = [i for i in order if i in keep]
+        for i in self.bricks_of(engine, order):
+            engine.render_brick(i)
+        return engine.end_bricks()
+
+
+def ghost_for(step: float, bounds, shape) -> int:
+    """Ghost voxels for segments of ``step`` in a volume of ``shape`` in ``bounds``."""
+    from . import _core
+
+    spacing = np.subtract(bounds[1], bounds[0]) / np.asarray(shape, dtype=np.float64)
+    return _core.brick_ghost(float(step), tuple(float(v) for v in spacing))

@@ -1,0 +1,305 @@
+//! Frames of a bricked volume (src/bricks.rs): one dispatch per brick in
+//! front-to-back order (back to front when the config marches that way),
+//! each marching only its own segments of every ray and leaving the ray's
+//! state for the next, then one dispatch that finishes the rays still open.
+//! Rays carry their state across bricks exactly as across the passes of a
+//! long frame, so early termination, jitter, pre-integration and both orders
+//! give the single-texture image. Bricks may be resident or streamed in by
+//! the caller between dispatches (`set_brick`, `evict_brick`); a brick no
+//! sample of which can show is never dispatched.
+//!
+//! With `keep_state` a frame's rays end with their raw state (premultiplied
+//! colour and optical depth, or a projection's running value) instead of a
+//! pixel: a partial image for compositing with other bricks' (sort-last).
+
+use super::{Ends, FrameStats, GpuRenderer};
+use crate::bricks::BrickGrid;
+use crate::config::RenderConfig;
+use crate::error::Error;
+use crate::gpu::params::{world_unit, FrameInputs, Params};
+use crate::gpu::pipeline::Variant;
+use crate::gpu::plan::PassPlan;
+use crate::gpu::readback::read_buffers;
+use crate::gpu::resources::{OccSource, Occupancy, RayState, VolumeGpu};
+use crate::model::{Model, Order};
+use crate::occupancy::MinMaxGrid;
+use crate::scene::{Bounds, Camera, Light};
+use crate::volume::{Precision, VolumeView};
+use glam::DVec3;
+
+/// One brick: its texture while resident, and always its value ranges.
+struct BrickSlot {
+    volume: Option<VolumeGpu>,
+    grid: Option<MinMaxGrid>,
+    occupancy: Occupancy,
+}
+
+/// The bricked volume: its layout, box and bricks.
+pub(super) struct Bricks {
+    grid: BrickGrid,
+    bounds: Bounds,
+    slots: Vec<BrickSlot>,
+}
+
+/// A bricked frame between `begin_bricks` and `end_bricks`.
+pub struct BrickFrame {
+    camera: Camera,
+    light: Light,
+    cfg: RenderConfig,
+    params: Params,
+    /// Passes dispatched so far.
+    dispatched: u32,
+    /// The last brick's pipeline and bindings: the closing dispatch reuses them.
+    last: Option<(Variant, wgpu::BindGroup)>,
+}
+
+impl GpuRenderer {
+    /// Replaces the volume by an empty bricked one of shape `dims` in
+    /// `bounds`, in bricks of `core` voxels with `ghost` voxels around each.
+    pub fn set_brick_layout(&mut self, dims: [usize; 3], bounds: Bounds, core: [usize; 3], ghost: usize) -> Result<(), Error> {
+        self.check_process()?;
+        let grid = BrickGrid::new(dims, core, ghost)?;
+        let slots = (0..grid.len())
+            .map(|_| BrickSlot { volume: None, grid: None, occupancy: Occupancy::new() })
+            .collect();
+        self.volume = None;
+        self.bind_group = None;
+        self.occupancy = Occupancy::new();
+        self.brick_frame = None;
+        self.bricks = Some(Bricks { grid, bounds, slots });
+        Ok(())
+    }
+
+    /// The layout of the bricked volume, if one is loaded.
+    pub fn brick_grid(&self) -> Option<BrickGrid> {
+        self.bricks.as_ref().map(|b| b.grid)
+    }
+
+    fn slot(&mut self, index: usize) -> Result<(&mut BrickSlot, BrickGrid, Bounds), Error> {
+        let b = self.bricks.as_mut().ok_or_else(|| Error::InvalidInput("no bricked volume is loaded".into()))?;
+        let n = b.slots.len();
+        let slot = b.slots.get_mut(index).ok_or_else(|| {
+            Error::InvalidInput(format!("brick index {index} is out of range: the volume has {n} bricks"))
+        })?;
+        Ok((slot, b.grid, b.bounds))
+    }
+
+    /// Uploads brick `index`: `vol` holds its padded voxels (its bounds are
+    /// not used).
+    pub fn set_brick(&mut self, index: usize, vol: &VolumeView, precision: Precision) -> Result<(), Error> {
+        self.check_process()?;
+        let ctx = self.ctx.clone();
+        let (slot, grid, bounds) = self.slot(index)?;
+        let padded = grid.padded_range(index);
+        let want = padded.map(|[lo, hi]| hi - lo);
+        if vol.dims != want {
+            return Err(Error::InvalidInput(format!(
+                "brick {index} must hold voxels {padded:?} (shape {want:?}), got shape {:?}",
+                vol.dims
+            )));
+        }
+        let mut gpu = VolumeGpu::upload(&ctx, vol, precision)?;
+        // Passes are planned over the brick's own box.
+        let core = grid.core_range(index);
+        let at = |a: usize, v: usize| v as f64 / grid.dims[a] as f64;
+        let lo = DVec3::new(at(0, core[0][0]), at(1, core[1][0]), at(2, core[2][0]));
+        let hi = DVec3::new(at(0, core[0][1]), at(1, core[1][1]), at(2, core[2][1]));
+        gpu.bounds = Bounds { min: bounds.min + lo * bounds.extent(), max: bounds.min + hi * bounds.extent() };
+        let bytes = gpu.bytes;
+        slot.grid = Some(gpu.grid.clone());
+        slot.volume = Some(gpu);
+        slot.occupancy = Occupancy::new();
+        self.pending_upload += bytes;
+        self.counters.volume_uploads += 1;
+        Ok(())
+    }
+
+    /// Frees brick `index`'s texture; its value ranges stay, so a frame
+    /// still knows whether it must be streamed in again.
+    pub fn evict_brick(&mut self, index: usize) -> Result<(), Error> {
+        let (slot, _, _) = self.slot(index)?;
+        slot.volume = None;
+        slot.occupancy = Occupancy::new();
+        Ok(())
+    }
+
+    /// Bytes the resident bricks occupy on the device.
+    pub fn resident_brick_bytes(&self) -> u64 {
+        self.bricks.as_ref().map_or(0, |b| b.slots.iter().filter_map(|s| s.volume.as_ref()).map(|v| v.bytes).sum())
+    }
+
+    /// A new value map changes which cells every brick leaves empty.
+    pub(super) fn invalidate_brick_occupancy(&mut self) {
+        if let Some(b) = self.bricks.as_mut() {
+            for s in &mut b.slots {
+                s.occupancy.source = None;
+            }
+        }
+    }
+
+    pub fn brick_resident(&self, index: usize) -> bool {
+        self.bricks.as_ref().and_then(|b| b.slots.get(index)).is_some_and(|s| s.volume.is_some())
+    }
+
+    /// Starts a bricked frame and returns the bricks it needs, in the order
+    /// they must be rendered: bricks whose values cannot show under the
+    /// transfer function (or cannot reach the iso value) are left out, and
+    /// so are bricks never loaded. `keep_state`: end with a partial image.
+    pub fn begin_bricks(&mut self, camera: &Camera, light: &Light, cfg: &RenderConfig, keep_state: bool) -> Result<Vec<usize>, Error> {
+        self.check_process()?;
+        self.brick_frame = None;
+        let Some(b) = self.bricks.as_ref() else {
+            return Err(Error::InvalidInput("no bricked volume is loaded".into()));
+        };
+        if self.tables.lut.is_none() {
+            return Err(Error::InvalidInput("no transfer function set: call set_transfer_functions() first".into()));
+        }
+        cfg.validate()?;
+        if cfg.model == Model::SingleScattering {
+            return Err(Error::InvalidInput(
+                "the single_scattering model's shadow rays cross the whole volume, which a bricked volume never \
+                 holds at once: use another model, or a volume that fits in one texture"
+                    .into(),
+            ));
+        }
+        let basis = camera.basis(self.width, self.height)?;
+        let inputs = FrameInputs {
+            bounds: b.bounds,
+            dims: b.grid.dims,
+            width: self.width,
+            height: self.height,
+            lut_size: self.tables.lut.as_ref().map_or(1, |(_, n)| *n),
+            occ_levels: 1,
+            value_map: self.value_map,
+            clip: self.clip,
+        };
+        let params = Params { keep_state: keep_state as u32, ..Params::new(&inputs, &basis, light, cfg) };
+        // The eye in continuous voxel coordinates.
+        let dims = DVec3::new(b.grid.dims[0] as f64, b.grid.dims[1] as f64, b.grid.dims[2] as f64);
+        let eye = (camera.position - b.bounds.min) / b.bounds.extent() * dims;
+        let mut order = b.grid.front_to_back(eye);
+        if cfg.order == Order::BackToFront && cfg.model.integrates() && cfg.model != Model::Absorption {
+            order.reverse();
+        }
+        let rows = &self.tables.rows;
+        let needed = |slot: &BrickSlot| match (&slot.grid, cfg.model) {
+            (None, _) => false,
+            (Some(g), Model::Isosurface) => g.occupancy_reaching(cfg.iso_value, self.value_map).contains(&1),
+            (Some(g), m) if m.skips_transparent() && self.skip_empty => g.occupancy(rows, self.value_map).contains(&1),
+            (Some(_), _) => true,
+        };
+        let order: Vec<usize> = order.into_iter().filter(|&i| needed(&b.slots[i])).collect();
+        let pixels = self.width as u64 * self.height as u64;
+        if self.frame.ray_state.pixels < pixels {
+            let limit = self.ctx.max_storage_bytes();
+            if pixels * 16 > limit {
+                return Err(Error::DeviceLimit(format!(
+                    "bricked frames keep 16 bytes per pixel: {}x{} is over this device's limit of {limit} bytes",
+                    self.width, self.height
+                )));
+            }
+            self.frame.ray_state = RayState::new(&self.ctx, pixels)?;
+            self.bind_group = None;
+        }
+        self.depth_ready = false;
+        self.brick_frame = Some(BrickFrame {
+            camera: *camera,
+            light: *light,
+            cfg: *cfg,
+            params,
+            dispatched: 0,
+            last: None,
+        });
+        Ok(order)
+    }
+
+    /// Marches every ray's segments inside brick `index` (which must be
+    /// resident), asking `stop` between passes.
+    pub fn render_brick(&mut self, index: usize, stop: &mut dyn FnMut() -> bool) -> Result<(), Error> {
+        self.check_process()?;
+        let frame = self.brick_frame.take().ok_or_else(|| Error::InvalidInput("no bricked frame was begun".into()))?;
+        let (slot, grid, bounds) = self.slot(index)?;
+        if slot.volume.is_none() {
+            self.brick_frame = Some(frame);
+            return Err(Error::InvalidInput(format!("brick {index} is not loaded: call set_brick() first")));
+        }
+        // The brick becomes the renderer's volume for the dispatch. Its
+        // bindings are made afresh: a table or buffer may have changed
+        // since it was last drawn.
+        let mut volume = slot.volume.take();
+        let mut occupancy = std::mem::replace(&mut slot.occupancy, Occupancy::new());
+        std::mem::swap(&mut self.volume, &mut volume);
+        std::mem::swap(&mut self.occupancy, &mut occupancy);
+        self.bind_group = None;
+        let mut frame = frame;
+        let result = self.dispatch_brick(&mut frame, &grid, &bounds, index, stop);
+        std::mem::swap(&mut self.volume, &mut volume);
+        std::mem::swap(&mut self.occupancy, &mut occupancy);
+        self.bind_group = None;
+        let (slot, _, _) = self.slot(index)?;
+        (slot.volume, slot.occupancy) = (volume, occupancy);
+        self.brick_frame = Some(frame);
+        result
+    }
+
+    fn dispatch_brick(
+        &mut self,
+        frame: &mut BrickFrame,
+        grid: &BrickGrid,
+        bounds: &Bounds,
+        index: usize,
+        stop: &mut dyn FnMut() -> bool,
+    ) -> Result<(), Error> {
+        let cfg = frame.cfg;
+        let source = match cfg.model {
+            Model::Isosurface => OccSource::Below(cfg.iso_value.to_bits()),
+            _ => OccSource::Lut(self.tables.version),
+        };
+        self.update_occupancy(source)?;
+        let (variant, plan) = self.prepare(&frame.camera, &frame.light, &cfg)?;
+        self.bind(variant.layout.hw_filter)?;
+        let bind_group = self.bind_group.as_ref().expect("bound above").0.clone();
+        let params = Params { occ_levels: self.occupancy.levels, ..frame.params.for_brick(bounds, grid, index) };
+        let ends = Ends { first: frame.dispatched == 0, last: false };
+        self.dispatch(variant, &bind_group, params, plan, ends, stop)?;
+        frame.dispatched += plan.passes;
+        frame.last = Some((variant, bind_group));
+        Ok(())
+    }
+
+    /// Finishes the bricked frame into `out` (width * height * 4 floats,
+    /// row 0 at the bottom): premultiplied RGBA, or with `keep_state` each
+    /// ray's state (colour, optical depth) or (value, 1 if any sample, -, -).
+    pub fn end_bricks(&mut self, out: &mut [f32]) -> Result<FrameStats, Error> {
+        self.check_process()?;
+        let n = self.width as usize * self.height as usize * 4;
+        if out.len() != n {
+            return Err(Error::InvalidInput(format!("output slice has {} floats, expected {n}", out.len())));
+        }
+        let frame = self.brick_frame.take().ok_or_else(|| Error::InvalidInput("no bricked frame was begun".into()))?;
+        let bounds = self.bricks.as_ref().expect("a frame was begun").bounds;
+        let Some((variant, bind_group)) = frame.last else {
+            // No brick could show anything.
+            out.fill(0.0);
+            return Ok(self.finish_frame(FrameStats::default(), 0));
+        };
+        let params = Params { resolve: 1, ..frame.params };
+        let one = PassPlan { passes: 1, pass_steps: 1, max_steps_needed: 0, per_pixel_state: true, planned_samples: 0 };
+        self.dispatch(variant, &bind_group, params, one, Ends { first: false, last: true }, &mut || false)?;
+        let (truncated_needed, samples) = read_buffers(
+            &self.ctx,
+            &[&self.frame.output.readback, &self.frame.stats_readback],
+            "the image",
+            |data| {
+                out.copy_from_slice(bytemuck::cast_slice(data[0]));
+                let w: &[u32] = bytemuck::cast_slice(data[1]);
+                (w[0], w[1] as u64 | (w[2] as u64) << 32)
+            },
+        )?;
+        self.depth_ready = frame.cfg.model == Model::Isosurface;
+        self.depth_unit = world_unit(&bounds);
+        let uniforms = (frame.dispatched as u64 + 1) * std::mem::size_of::<Params>() as u64;
+        let stats = FrameStats { truncated_needed, uploaded_bytes: 0, passes: frame.dispatched + 1, samples };
+        Ok(self.finish_frame(stats, uniforms))
+    }
+}

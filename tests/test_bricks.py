@@ -1,0 +1,178 @@
+"""Bricked and out-of-core volumes render the single-texture image.
+
+Bricks are forced small on small volumes so that every ray crosses many brick
+faces; the tolerance is 0.05 of an 8-bit level (float output): the only
+difference allowed is f32 rounding of texture coordinates, which measured
+below 0.001 levels. A brick seam, a segment marched twice or skipped, or a
+state lost between bricks costs whole levels.
+"""
+
+import numpy as np
+import pytest
+
+import pyvr
+from pyvr import RenderConfig, VolumeRenderer
+from pyvr.camera import Camera
+from pyvr.transferfunctions import ColorTransferFunction, OpacityTransferFunction
+from pyvr.volume import Volume
+
+LEVEL = 1 / 255
+TOL = 0.05 * LEVEL
+BOX = (np.array([-1, -0.8, -0.7], np.float32), np.array([1, 0.8, 0.7], np.float32))
+
+
+def scene_data():
+    d = pyvr.datasets.create_sample_volume(40, "double_sphere").astype(np.float32)
+    return np.ascontiguousarray(d[:, :33, :29])
+
+
+def renderer(**kw):
+    r = VolumeRenderer(64, 56, config=RenderConfig.balanced(), **kw)
+    r.set_transfer_functions(ColorTransferFunction.from_colormap("viridis"), OpacityTransferFunction.linear(0.0, 0.5))
+    r.set_camera(Camera.from_spherical(np.zeros(3), 0.7, 0.4, 0.0, 3.0))
+    return r
+
+
+def config(**kw):
+    c = RenderConfig.balanced()
+    for k, v in kw.items():
+        setattr(c, k, v)
+    return c
+
+
+CONFIGS = {
+    "emission_absorption": {},
+    "back_to_front": {"order": "back_to_front"},
+    "jitter_early_stop": {"jitter": True, "opacity_threshold": 0.7},
+    "pre_integrated": {"pre_integrated": True},
+    "power_correction": {"opacity_correction": "power"},
+    "absorption": {"model": "absorption"},
+    "emission": {"model": "emission"},
+    "mip": {"model": "mip"},
+    "minip": {"model": "minip"},
+    "average": {"model": "average"},
+    "isosurface": {"model": "isosurface", "iso_value": 0.5},
+}
+
+
+@pytest.fixture(scope="module")
+def pair():
+    data = scene_data()
+    vol = Volume(data=data, min_bounds=BOX[0], max_bounds=BOX[1])
+    whole, bricked = renderer(), renderer(brick_shape=(9, 11, 7))
+    whole.load_volume(vol)
+    bricked.load_volume(vol)
+    return whole, bricked
+
+
+def test_small_bricks_are_really_used(pair):
+    info = pair[1].bricks
+    assert info["count"] == 5 * 3 * 5 and info["brick_shape"] == (9, 11, 7) and info["resident"]
+    assert pair[0].bricks is None
+
+
+@pytest.mark.parametrize("name", sorted(CONFIGS))
+def test_bricked_frame_equals_single_texture(pair, name):
+    whole, bricked = pair
+    cfg = config(**CONFIGS[name])
+    outside = Camera.from_spherical(np.zeros(3), 0.7, 0.4, 0.0, 3.0)
+    inside = Camera(target=np.array([-1.0, 0.2, 0.1]), azimuth=0.0, elevation=0.0, roll=0.0, distance=0.9)
+    for cam in (outside, inside):
+        whole.set_camera(cam)
+        bricked.set_camera(cam)
+        a = whole.render(dtype=np.float32, config=cfg)
+        b = bricked.render(dtype=np.float32, config=cfg)
+        if cam is outside:
+            assert a.max() > 0.05, "the scene must show something"
+        assert np.abs(a - b).max() < TOL, f"{name}: max difference {np.abs(a - b).max() / LEVEL:.4f} levels"
+        if name == "isosurface" and cam is outside:
+            da, db = whole.depth(), bricked.depth()
+            hit = np.isfinite(da)
+            assert hit.sum() > 100 and np.array_equal(hit, np.isfinite(db))
+            assert np.abs(da[hit] - db[hit]).max() < 1e-4
+
+
+def test_a_longer_step_recuts_the_bricks_with_wider_ghosts(pair):
+    whole, bricked = pair
+    ghost = bricked.bricks["ghost"]
+    cfg = config(step_size=0.2)
+    a = whole.render(dtype=np.float32, config=cfg)
+    b = bricked.render(dtype=np.float32, config=cfg)
+    assert bricked.bricks["ghost"] > ghost
+    assert np.abs(a - b).max() < TOL
+
+
+def test_crop_box_applies_to_bricks(pair):
+    whole, bricked = pair
+    for r in pair:
+        r.set_crop_box((-0.5, -0.8, -0.2), (0.6, 0.3, 0.7))
+    try:
+        a, b = whole.render(dtype=np.float32), bricked.render(dtype=np.float32)
+        assert np.abs(a - b).max() < TOL
+    finally:
+        for r in pair:
+            r.set_crop_box()
+
+
+def test_single_scattering_is_refused_with_bricks(pair):
+    with pytest.raises(ValueError, match="single_scattering"):
+        pair[1].render(config=config(model="single_scattering"))
+
+
+def test_bad_brick_options_are_errors():
+    with pytest.raises(ValueError, match="brick_shape"):
+        VolumeRenderer(8, 8, brick_shape=(4, 0, 4))
+    with pytest.raises(ValueError, match="memory_budget"):
+        VolumeRenderer(8, 8, memory_budget=0)
+
+
+@pytest.fixture(scope="module")
+def reference():
+    data = scene_data()
+    r = renderer()
+    r.load_volume(Volume(data=data, min_bounds=BOX[0], max_bounds=BOX[1]))
+    return data, r.render(dtype=np.float32)
+
+
+def test_memmap_streams_bricks_when_over_budget(reference, tmp_path):
+    data, want = reference
+    path = tmp_path / "v.raw"
+    data.tofile(path)
+    mm = np.memmap(path, dtype=np.float32, mode="r", shape=data.shape)
+    r = renderer(brick_shape=(16, 16, 16), memory_budget=64 * 1024)
+    r.load_volume(Volume(data=mm, min_bounds=BOX[0], max_bounds=BOX[1]))
+    assert r.bricks["resident"] is False and r.bricks["device_bytes"] > 64 * 1024
+    got = r.render(dtype=np.float32)
+    assert np.abs(got - want).max() < TOL
+    # Nothing stays on the device between frames.
+    assert r.counters()["volume_bytes"] == 0
+
+
+def test_zarr_array_renders_like_numpy(reference, tmp_path):
+    zarr = pytest.importorskip("zarr")
+    data, want = reference
+    z = zarr.open_array(str(tmp_path / "v.zarr"), mode="w", shape=data.shape, chunks=(16, 16, 16), dtype="f4")
+    z[:] = data
+    r = renderer()
+    r.load_volume(Volume(data=z, min_bounds=BOX[0], max_bounds=BOX[1]))
+    assert r.bricks is not None
+    assert np.abs(r.render(dtype=np.float32) - want).max() < TOL
+
+
+def test_dask_and_xarray_arrays_render_like_numpy(reference):
+    da = pytest.importorskip("dask.array")
+    xr = pytest.importorskip("xarray")
+    data, want = reference
+    lazy = da.from_array(data, chunks=(20, 17, 15))
+    r = renderer()
+    r.load_volume(Volume(data=lazy, min_bounds=BOX[0], max_bounds=BOX[1]))
+    assert np.abs(r.render(dtype=np.float32) - want).max() < TOL
+    # Coordinates at cell centres give the box.
+    coords = {d: lo + (np.arange(n) + 0.5) * (hi - lo) / n
+              for d, n, lo, hi in zip("xyz", data.shape, BOX[0].astype(float), BOX[1].astype(float))}
+    arr = xr.DataArray(lazy, dims=("x", "y", "z"), coords=coords, name="density")
+    r2 = renderer()
+    r2.load_volume(arr)
+    np.testing.assert_allclose(r2.volume.min_bounds, BOX[0], atol=1e-6)
+    np.testing.assert_allclose(r2.volume.max_bounds, BOX[1], atol=1e-6)
+    assert np.abs(r2.render(dtype=np.float32) - want).max() < TOL
