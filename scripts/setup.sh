@@ -34,9 +34,11 @@ fi
 echo "== installing Python packages"
 .venv/bin/python -m pip install -q --upgrade pip
 # The file-format extras (nifti, nrrd, dicom, tiff, zarr) are what the loader tests read and write;
-# tqdm, imageio(-ffmpeg), jupyter_rfb and the kernel packages are what the animation and notebook tests use.
+# tqdm, imageio(-ffmpeg), jupyter_rfb and the kernel packages are what the animation and notebook tests use;
+# dask, distributed and xarray what the out-of-core and cluster tests use.
 .venv/bin/python -m pip install -q "maturin>=1.7,<2" numpy scipy pillow matplotlib moderngl pytest hypothesis \
-    nibabel pynrrd pydicom tifffile zarr tqdm imageio imageio-ffmpeg jupyter_rfb ipywidgets nbclient nbformat ipykernel
+    nibabel pynrrd pydicom tifffile zarr tqdm imageio imageio-ffmpeg jupyter_rfb ipywidgets nbclient nbformat ipykernel \
+    "dask[array]" distributed xarray
 
 echo "== building pyvr (release)"
 start=$(date +%s)

@@ -5,7 +5,7 @@ wgpu compute shaders. ``import pyvr`` needs numpy and scipy only; matplotlib,
 Pillow and moderngl are imported when a feature needs them.
 """
 
-from . import camera, dataloaders, datasets, lighting, moderngl_renderer, transferfunctions, volume
+from . import bricks, camera, dataloaders, datasets, distributed, lighting, moderngl_renderer, transferfunctions, volume
 from .animation import save_animation
 from .config import RenderConfig
 from .dataloaders import load

@@ -11,7 +11,8 @@ to brick, so the image equals the single-texture one (tests/test_bricks.py).
 Bricks no sample of which can show under the transfer function are never
 read. When every brick fits within the memory budget they stay on the
 device; otherwise each frame streams them in, one at a time, and host memory
-holds at most one brick (plus its converted copy) at once.
+holds at most one brick (plus its converted copy) at once. Loading reads
+nothing: each brick is read when a frame first needs it.
 """
 
 from __future__ import annotations
@@ -140,22 +141,17 @@ class BrickedVolume:
         return sum(int(np.prod([hi - lo for lo, hi in r])) for r in self.ranges) * self.texel_bytes()
 
     def layout(self, engine) -> None:
-        """Lays the bricks out in ``engine`` and reads each once (for its
-        value ranges, which decide what a frame can skip); keeps them on
-        the device when they fit within the memory budget."""
-        from .renderer import prepare_normals, prepare_voxels
-
+        """Lays the bricks out in ``engine``. Nothing is read here: a brick
+        is read when a frame first needs it, and its value ranges, kept
+        from then on, let later frames skip it while nothing in it can
+        show. Bricks stay on the device when all fit in the memory budget."""
         engine.set_brick_layout(self.shape, *self.bounds, self.core, self.ghost)
         self.ranges = [tuple(tuple(r) for r in b) for b in engine.brick_ranges()]
         self.resident = self.device_bytes() <= self.memory_budget
-        for i in range(len(self.ranges)):
-            self.upload(engine, i, prepare_voxels, prepare_normals)
-            if not self.resident:
-                engine.evict_brick(i)
 
-    def upload(self, engine, i: int, prepare_voxels=None, prepare_normals=None) -> None:
-        if prepare_voxels is None:
-            from .renderer import prepare_normals, prepare_voxels
+    def upload(self, engine, i: int) -> None:
+        from .renderer import prepare_normals, prepare_voxels
+
         r = self.ranges[i]
         block = prepare_voxels(read_block(self.data, r))
         normals = None

@@ -404,7 +404,9 @@ class VolumeRenderer:
         """
         from . import bricks
 
-        if not isinstance(volume, Volume) and (isinstance(volume, np.ndarray) or bricks.is_lazy(volume)):
+        if not isinstance(volume, Volume) and bricks.is_lazy(volume):
+            # An array not in memory (memmap, zarr, dask, xarray) is taken as
+            # is; a plain ndarray still needs its Volume, as in pyvr.
             volume = bricks.as_volume(volume)
         if not isinstance(volume, Volume):
             raise TypeError(
@@ -633,8 +635,7 @@ class VolumeRenderer:
     def _render_float(self, size=None, config: Optional[RenderConfig] = None) -> np.ndarray:
         if self.volume is None:
             raise RuntimeError("no volume loaded: call load_volume() before render()")
-        if not self._has_tf:
-            self.set_transfer_functions(ColorTransferFunction(), OpacityTransferFunction())
+        self._ensure_tf()
         cfg = self._config_snapshot if config is None else config
         size = (self.width, self.height) if size is None else size
         # Caller chain: user -> render (or _accumulated -> render) -> _serialised -> here.
@@ -642,12 +643,7 @@ class VolumeRenderer:
         if (self._engine.width, self._engine.height) != size:
             # Output buffers only; the volume, table and pipelines stay.
             self._engine.resize(*size)
-        if self._camera_args is None:
-            camera = self._default_camera()  # pyvr had no default camera
-            self._follow(camera)
-            camera_args = _camera_tuple(camera)
-        else:
-            camera_args = self._camera_args
+        camera_args = self._frame_camera()
         if self._bricked is not None:
             from .bricks import ghost_for
 
@@ -684,6 +680,18 @@ class VolumeRenderer:
                     stacklevel=3,
                 )
         return img
+
+    def _ensure_tf(self) -> None:
+        if not self._has_tf:
+            self.set_transfer_functions(ColorTransferFunction(), OpacityTransferFunction())
+
+    def _frame_camera(self) -> tuple:
+        """The camera a frame uses: the one set, or a default view of the box."""
+        if self._camera_args is None:
+            camera = self._default_camera()  # pyvr had no default camera
+            self._follow(camera)
+            return _camera_tuple(camera)
+        return self._camera_args
 
     def render(self, *, dtype=np.uint8, premultiplied: bool = False, origin: str = "lower",
                background=None, size: Optional[tuple] = None, config: Optional[RenderConfig] = None,

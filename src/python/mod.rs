@@ -36,6 +36,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<renderer::PyRenderer>()?;
     m.add_function(wrap_pyfunction!(renderer::quantize, m)?)?;
     m.add_function(wrap_pyfunction!(renderer::brick_ghost, m)?)?;
+    m.add_function(wrap_pyfunction!(renderer::brick_layout, m)?)?;
     m.add_function(wrap_pyfunction!(renderer::integrate_reference, m)?)?;
     m.add_function(wrap_pyfunction!(transfer::colormap_table, m)?)?;
     m.add_function(wrap_pyfunction!(transfer::colormap_names, m)?)?;

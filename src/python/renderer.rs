@@ -389,6 +389,21 @@ pub fn brick_ghost(step: f64, spacing: Vec3) -> PyResult<usize> {
     Ok(crate::bricks::BrickGrid::ghost_for(step, dv(spacing)))
 }
 
+/// The padded voxel ranges ((lo, hi) per axis) of the bricks of a volume of
+/// shape `dims` in cores of `core` voxels with `ghost` voxels around each,
+/// and their front-to-back order along every ray from `eye` (continuous
+/// voxel coordinates).
+#[pyfunction]
+pub fn brick_layout(
+    dims: (usize, usize, usize),
+    core: (usize, usize, usize),
+    ghost: usize,
+    eye: Vec3,
+) -> PyResult<(Vec<[[usize; 2]; 3]>, Vec<usize>)> {
+    let g = crate::bricks::BrickGrid::new(dims.into(), core.into(), ghost).map_err(to_py)?;
+    Ok(((0..g.len()).map(|i| g.padded_range(i)).collect(), g.front_to_back(dv(eye))))
+}
+
 /// Premultiplied float RGBA (H, W, 4) to uint8; `straight` un-premultiplies.
 #[pyfunction]
 #[pyo3(signature = (rgba, straight=true))]

@@ -83,7 +83,9 @@ def case_float16_4gib():
     from pyvr.volume import Volume
 
     data = np.zeros((1024, 1024, 1024), np.float32)  # 4 GiB, pages untouched
-    VolumeRenderer(16, 16).load_volume(Volume(data), precision="float16")
+    r = VolumeRenderer(16, 16)
+    r.load_volume(Volume(data), precision="float16")
+    return f"bricks {r.bricks['count']}"
 
 
 def case_float16_3_75gib():
@@ -123,14 +125,18 @@ def case_broadcast_4096():
     from pyvr.volume import Volume
 
     data = np.broadcast_to(np.float32(0.5), (4096, 4096, 4096))
-    VolumeRenderer(16, 16).load_volume(Volume(data))
+    r = VolumeRenderer(16, 16)
+    r.load_volume(Volume(data))
+    return f"bricks {r.bricks['count']}"
 
 
 def case_4096_4096_33():
     from pyvr import VolumeRenderer
     from pyvr.volume import Volume
 
-    VolumeRenderer(16, 16).load_volume(Volume(np.zeros((4096, 4096, 33), np.float32)))
+    r = VolumeRenderer(16, 16)
+    r.load_volume(Volume(np.zeros((4096, 4096, 33), np.float32)))
+    return f"bricks {r.bricks['count']}"
 
 
 def case_sigint_gpu():
@@ -241,7 +247,9 @@ if __name__ == "__main__":
     sys.path.insert(0, os.path.dirname(__file__))
     try:
         done = globals()["case_" + sys.argv[1]]()
-        if not done:
+        if isinstance(done, str):
+            print(f"OK {done}")
+        elif not done:
             print("OK returned")
     except BaseException as e:
         print(f"RAISED {type(e).__name__}: {str(e)[:300]}")

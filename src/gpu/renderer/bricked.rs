@@ -142,9 +142,9 @@ impl GpuRenderer {
     }
 
     /// Starts a bricked frame and returns the bricks it needs, in the order
-    /// they must be rendered: bricks whose values cannot show under the
-    /// transfer function (or cannot reach the iso value) are left out, and
-    /// so are bricks never loaded. `keep_state`: end with a partial image.
+    /// they must be rendered: bricks once loaded whose values cannot show
+    /// under the transfer function (or cannot reach the iso value) are left
+    /// out. `keep_state`: end with a partial image.
     pub fn begin_bricks(&mut self, camera: &Camera, light: &Light, cfg: &RenderConfig, keep_state: bool) -> Result<Vec<usize>, Error> {
         self.check_process()?;
         self.brick_frame = None;
@@ -183,7 +183,8 @@ impl GpuRenderer {
         }
         let rows = &self.tables.rows;
         let needed = |slot: &BrickSlot| match (&slot.grid, cfg.model) {
-            (None, _) => false,
+            // Never read yet: it may hold anything.
+            (None, _) => true,
             (Some(g), Model::Isosurface) => g.occupancy_reaching(cfg.iso_value, self.value_map).contains(&1),
             (Some(g), m) if m.skips_transparent() && self.skip_empty => g.occupancy(rows, self.value_map).contains(&1),
             (Some(_), _) => true,
