@@ -90,10 +90,58 @@ def read_block(data: Any, ranges: Sequence[Sequence[int]]) -> np.ndarray:
     if mod == "xarray":
         data = data.data
         mod = type(data).__module__.split(".")[0]
+    if isinstance(data, np.memmap):
+        direct = _read_file_block(data, ranges)
+        if direct is not None:
+            return direct
     block = data[sl]
     if mod == "dask":
         block = block.compute()
+    if isinstance(data, np.memmap):
+        block = np.array(block)
+        _release_pages(data)
     return np.asarray(block)
+
+
+def _read_file_block(mm: np.memmap, ranges) -> Optional[np.ndarray]:
+    """A block of a C-ordered memmap read from its file with pread, one
+    slab of whole rows at a time: the process never maps the file's pages
+    (a fault maps its neighbours too, tens of MiB per brick). None when the
+    memmap is a view or not C-ordered."""
+    import mmap
+    import os
+
+    if not (isinstance(mm.base, mmap.mmap) and mm.flags.c_contiguous and getattr(mm, "filename", None)):
+        return None
+    (i0, i1), (j0, j1), (k0, k1) = [(int(lo), int(hi)) for lo, hi in ranges]
+    n1, n2 = mm.shape[1], mm.shape[2]
+    row = n2 * mm.dtype.itemsize
+    out = np.empty((i1 - i0, j1 - j0, k1 - k0), dtype=mm.dtype)
+    with open(mm.filename, "rb") as f:
+        for i in range(i0, i1):
+            start = mm.offset + (i * n1 + j0) * row
+            want = (j1 - j0) * row
+            buf = os.pread(f.fileno(), want, start)
+            if len(buf) != want:
+                raise ValueError(f"{mm.filename} ends before the memmap's shape {mm.shape} says it does")
+            out[i - i0] = np.frombuffer(buf, dtype=mm.dtype).reshape(j1 - j0, n2)[:, k0:k1]
+    return out
+
+
+def _release_pages(mm: np.memmap) -> None:
+    """Drops a memmap's file pages from this process (they stay in the page
+    cache): read pages count in the process's memory until unmapped, so
+    streaming a large file brick by brick would otherwise fill it."""
+    import mmap
+
+    m = getattr(mm, "_mmap", None)
+    # Never for copy-on-write maps ("c"): their changed pages live nowhere else.
+    if m is not None and getattr(mm, "mode", None) in ("r", "r+", "readonly", "readwrite") \
+            and hasattr(mmap, "MADV_DONTNEED"):
+        try:
+            m.madvise(mmap.MADV_DONTNEED)
+        except (OSError, ValueError):
+            pass
 
 
 def brick_shape_for(shape, texel_bytes: int, ghost: int, max_side: int, requested=None) -> Tuple[int, int, int]:

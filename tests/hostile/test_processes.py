@@ -91,3 +91,25 @@ def test_no_runtime_dir_still_renders_quietly():
     p = subprocess.run([sys.executable, os.path.join(HERE, "run_case.py"), "xdg"], capture_output=True, text=True,
                        timeout=60, env={k: v for k, v in os.environ.items() if k != "XDG_RUNTIME_DIR"})
     assert "OK rendered" in p.stdout and "XDG_RUNTIME_DIR" not in p.stderr, p.stderr
+
+
+def test_a_memmapped_volume_four_times_the_budget_streams_within_it(tmp_path):
+    """Out-of-core: a 256 MiB file (601 MiB of bricks with their ghosts)
+    through a 64 MiB budget. Bricks are read from the file, uploaded and
+    freed one at a time, so the process grows by a few bricks, never by the
+    file (measured: 20 MiB)."""
+    import numpy as np
+
+    shape = (256, 256, 1024)
+    path = tmp_path / "big.raw"
+    mm = np.memmap(path, dtype=np.float32, mode="w+", shape=shape)
+    z = np.linspace(0.0, 1.0, shape[2], dtype=np.float32)
+    for i in range(shape[0]):
+        mm[i] = z * (i / shape[0])
+    mm.flush()
+    del mm
+    result, rss = run("memmap_stream", str(path), "x".join(map(str, shape)), "64")
+    assert result.startswith("OK base"), result
+    base = float(result.split()[2])
+    assert int(result.split()[-1]) >= 4 * 64, result  # the device copy would be 4x the budget
+    assert rss - base < 64, f"peak {rss} MiB against {base} MiB after a small frame: {result}"
