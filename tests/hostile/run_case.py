@@ -186,13 +186,12 @@ def _pool_job(i):
     return int(_GLOBAL.render().astype(int).sum())
 
 
-def case_pool():
+def case_pool(method):
     import multiprocessing as mp
 
     global _GLOBAL
     _GLOBAL = renderer()
     ref = int(_GLOBAL.render().astype(int).sum())
-    method = sys.argv[2]
     with mp.get_context(method).Pool(2, initializer=_init_worker) as pool:
         sums = pool.map(_pool_job, range(4))
     print(f"OK {method} {sorted(set(s - ref for s in sums))}")
