@@ -68,8 +68,11 @@ def make_data(folder: str, n: int, zarr_too: bool) -> dict:
         if not os.path.exists(store):
             mm = np.memmap(raw, dtype=np.float32, mode="r", shape=(n, n, n))
             # Uncompressed: the benchmark times reading and rendering, not zstd.
-            z = zarr.open_array(store + ".part", mode="w", shape=(n, n, n), chunks=BRICK, dtype="f4",
-                                compressors=None)
+            if hasattr(zarr, "create_array"):
+                z = zarr.create_array(store + ".part", shape=(n, n, n), chunks=BRICK, dtype="f4", compressors=None)
+            else:
+                z = zarr.open_array(store + ".part", mode="w", shape=(n, n, n), chunks=BRICK, dtype="f4",
+                                    compressor=None)
             step = BRICK[0]
             for i in range(0, n, step):
                 z[i:i + step] = mm[i:i + step]
@@ -157,39 +160,50 @@ def run_case(mode, n, data, workers=0) -> dict:
     return json.loads(line[0][7:])
 
 
-def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--sizes", default="256,512,1024")
-    ap.add_argument("--largest", type=int, default=0, help="one more size, out-of-core only")
-    ap.add_argument("--dir", default=os.path.join(tempfile.gettempdir(), "pyvr_scale"))
-    ap.add_argument("--case", nargs=5)
-    a = ap.parse_args()
-    if a.case:
-        mode, n, raw, store, workers = a.case
-        print("RESULT " + json.dumps(case(mode, int(n), raw, store, int(workers))), flush=True)
-        return
-    from _report import write_table
-    from pyvr.renderer import device_limits
+def label_of(mode: str, workers: int) -> str:
+    return mode if mode != "cluster" else f"LocalCluster, {workers} worker{'s' if workers > 1 else ''}"
 
-    os.makedirs(a.dir, exist_ok=True)
-    limits = device_limits()
+
+def models(results: list, cores: int) -> dict:
+    """Predicted frame times, (n, mode, workers) -> ms, from two models:
+
+    - size: T(N) = a + b N^3 per path (rendering at a fixed step costs the
+      same at any N; reading, converting and uploading scale with the
+      voxels), fitted on the two smallest sizes and predicting the rest;
+    - workers: T(P) = T_s + T_p max(1, c P / C) / P, with T_p the brick tasks
+      (read + render) and T_s the combine chain; here each worker's
+      renderer (lavapipe) uses all C cores (c = C), so P workers share them
+      and the model predicts T(2) = T(1) from the one-worker measurement.
+    """
+    ok = {(r["n"], r["mode"], r["workers"]): r["res"]["frame_ms"] for r in results if "frame_ms" in r["res"]}
+    pred = {}
+    for mode, workers in {(m, w) for _, m, w in ok}:
+        sizes = sorted(n for n, m, w in ok if (m, w) == (mode, workers))
+        if len(sizes) >= 3:
+            (n0, n1) = sizes[:2]
+            t0, t1 = ok[(n0, mode, workers)], ok[(n1, mode, workers)]
+            b = (t1 - t0) / (n1 ** 3 - n0 ** 3)
+            for n in sizes[2:]:
+                pred[(n, mode, workers)] = ("size", t0 + b * (n ** 3 - n0 ** 3))
+    for (n, mode, workers), t in ok.items():
+        one = ok.get((n, "cluster", 1))
+        if mode == "cluster" and workers > 1 and one is not None:
+            c = cores  # lavapipe: one renderer uses every core
+            pred[(n, mode, workers)] = ("workers", one * max(1.0, c * workers / cores) / workers)
+    return pred
+
+
+def table(results: list, command: str) -> None:
+    from _report import write_table
+
+    pred = models(results, os.cpu_count() or 1)
     rows = []
-    sizes = [int(s) for s in a.sizes.split(",")]
-    plan = [(n, m, w) for n in sizes for m, w in
-            (("single", 0), ("bricked", 0), ("out_of_core", 0), ("cluster", 1), ("cluster", 2))]
-    if a.largest:
-        plan.append((a.largest, "out_of_core", 0))
-    for n, mode, workers in plan:
-        data = make_data(a.dir, n, zarr_too=mode == "cluster")
-        if mode == "single" and (n ** 3 * 4 > limits["max_buffer_size"] or n > limits["max_texture_dimension_3d"]):
-            res = {"error": f"over the device's {limits['max_buffer_size'] >> 20} MiB upload limit"}
-        else:
-            res = run_case(mode, n, data, workers)
-        label = mode if mode != "cluster" else f"LocalCluster, {workers} worker{'s' if workers > 1 else ''}"
-        print(n, label, res, flush=True)
+    for r in results:
+        n, mode, workers, res = r["n"], r["mode"], r["workers"], r["res"]
+        label = label_of(mode, workers)
         gib = n ** 3 * 4 / 2**30
         if "error" in res:
-            rows.append([f"{n}^3", f"{gib:.3g}", label, "-", "-", "-", "-", res["error"]])
+            rows.append([f"{n}^3", f"{gib:.3g}", label, "-", "-", "-", "-", "-", res["error"]])
             continue
         note = f"{res['bricks']} bricks" if res.get("bricks") else "one texture"
         if "budget_mib" in res:
@@ -197,17 +211,66 @@ def main():
         if "worker_peak_mib" in res:
             note += f", client process {res['peak_mib']:.0f} MiB"
         peak = res.get("worker_peak_mib", res["peak_mib"])
+        model = pred.get((n, mode, workers))
         rows.append([f"{n}^3", f"{gib:.3g}", label, round(res["first_ms"]), round(res["frame_ms"]),
+                     "-" if model is None else f"{model[1]:.0f} ({model[0]})",
                      round(n ** 3 / (res["frame_ms"] / 1e3) / 1e6), round(peak), note])
     write_table(
-        "scale", "benches/scale.py" + (f" --largest {a.largest}" if a.largest else ""),
-        ["volume", "GiB (float32)", "path", "first frame (ms)", "frame (ms, warm median of 3)", "Mvoxels/s",
-         "peak RSS per process (MiB)", "notes"],
+        "scale", command,
+        ["volume", "GiB (float32)", "path", "first frame (ms)", "frame (ms, warm median)", "model (ms)",
+         "Mvoxels/s", "peak RSS per process (MiB)", "notes"],
         rows,
         note="512^2, balanced preset, synthetic torus + ball in [-1, 1]^3; bricks of 256^3 (+ ghosts). "
              "Out-of-core reads a raw memmapped file under a device budget of a quarter of the volume; "
-             "the cluster reads a zarr store (chunks 256^3) on this machine's two cores.",
+             "the cluster reads an uncompressed zarr store (chunks 256^3) on this machine's cores. Frames: one, "
+             "then the median of three (of one past 1024^3). Model: see docs/scale.md (size: fitted on the two "
+             "smallest sizes of the same path; workers: predicted from the one-worker row).",
     )
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--sizes", default="256,512,1024")
+    ap.add_argument("--largest", type=int, default=0, help="one more size, out-of-core only")
+    ap.add_argument("--dir", default=os.path.join(tempfile.gettempdir(), "pyvr_scale"))
+    ap.add_argument("--table-only", action="store_true", help="rebuild out/scale.json from out/scale_raw.json")
+    ap.add_argument("--case", nargs=5)
+    a = ap.parse_args()
+    if a.case:
+        mode, n, raw, store, workers = a.case
+        print("RESULT " + json.dumps(case(mode, int(n), raw, store, int(workers))), flush=True)
+        return
+    from _report import OUT
+    from pyvr.renderer import device_limits
+
+    command = "benches/scale.py" + (f" --sizes {a.sizes}" if a.sizes != "256,512,1024" else "") \
+        + (f" --largest {a.largest}" if a.largest else "")
+    raw_path = os.path.join(OUT, "scale_raw.json")
+    if a.table_only:
+        with open(raw_path) as f:
+            saved = json.load(f)
+        table(saved["results"], saved["command"])
+        return
+    os.makedirs(a.dir, exist_ok=True)
+    limits = device_limits()
+    sizes = [int(s) for s in a.sizes.split(",")]
+    plan = [(n, m, w) for n in sizes for m, w in
+            (("single", 0), ("bricked", 0), ("out_of_core", 0), ("cluster", 1), ("cluster", 2))]
+    if a.largest:
+        plan.append((a.largest, "out_of_core", 0))
+    results = []
+    for n, mode, workers in plan:
+        data = make_data(a.dir, n, zarr_too=mode == "cluster")
+        if mode == "single" and (n ** 3 * 4 > limits["max_buffer_size"] or n > limits["max_texture_dimension_3d"]):
+            res = {"error": f"over the device's {limits['max_buffer_size'] >> 20} MiB upload limit"}
+        else:
+            res = run_case(mode, n, data, workers)
+        print(n, label_of(mode, workers), res, flush=True)
+        results.append({"n": n, "mode": mode, "workers": workers, "res": res})
+        os.makedirs(OUT, exist_ok=True)
+        with open(raw_path, "w") as f:
+            json.dump({"command": command, "results": results}, f, indent=1)
+    table(results, command)
 
 
 if __name__ == "__main__":
