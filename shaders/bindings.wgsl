@@ -62,6 +62,10 @@ struct Params {
     only_dispatch: u32,
     // Finish every ray that is still open from its state, sampling nothing.
     resolve: u32,
+    // The dispatch's first pixel (a brick's screen rectangle).
+    tile_x: u32,
+    tile_y: u32,
+    tile_pad: vec2<u32>,
 };
 
 @group(0) @binding(BINDING_PARAMS) var<uniform> P: Params;

@@ -5,7 +5,9 @@
 // too), each sampled at its midpoint and weighted by its own length.
 
 @compute @workgroup_size(8, 8, 1)
-fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+fn main(@builtin(global_invocation_id) global_id: vec3<u32>) {
+    // A brick's dispatch covers only the pixels its box can cover.
+    let gid = global_id.xy + vec2<u32>(P.tile_x, P.tile_y);
     if (gid.x >= P.width || gid.y >= P.height) {
         return;
     }

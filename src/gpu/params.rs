@@ -86,6 +86,10 @@ uniform_block! {
         pub only_dispatch: u32,
         /// Finish the rays still open, sampling nothing.
         pub resolve: u32,
+        /// The dispatch's first pixel.
+        pub tile_x: u32,
+        pub tile_y: u32,
+        pub tile_pad: [u32; 2],
     }
 }
 
@@ -175,6 +179,9 @@ impl Params {
             keep_state: 0,
             only_dispatch: 0,
             resolve: 0,
+            tile_x: 0,
+            tile_y: 0,
+            tile_pad: [0; 2],
         }
     }
 

@@ -12,7 +12,7 @@
 //! colour and optical depth, or a projection's running value) instead of a
 //! pixel: a partial image for compositing with other bricks' (sort-last).
 
-use super::{Ends, FrameStats, GpuRenderer};
+use super::{Ends, FrameStats, GpuRenderer, Rect};
 use crate::bricks::BrickGrid;
 use crate::config::RenderConfig;
 use crate::error::Error;
@@ -23,9 +23,37 @@ use crate::gpu::readback::read_buffers;
 use crate::gpu::resources::{OccSource, Occupancy, RayState, VolumeGpu};
 use crate::model::{Model, Order};
 use crate::occupancy::MinMaxGrid;
-use crate::scene::{Bounds, Camera, Light};
+use crate::scene::{Bounds, Camera, Light, RayBasis};
 use crate::volume::{Precision, VolumeView};
 use glam::DVec3;
+
+/// The pixels whose rays can cross `b`: the bounding rectangle of its
+/// corners' projections, a pixel wider on each side for rounding; None
+/// (every pixel) when a corner is not in front of the eye.
+fn screen_rect(basis: &RayBasis, b: &Bounds, width: u32, height: u32) -> Option<Rect> {
+    let (r2, u2) = (basis.right.length_squared(), basis.up.length_squared());
+    let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+    for k in 0..8 {
+        let c = DVec3::new(
+            if k & 1 == 0 { b.min.x } else { b.max.x },
+            if k & 2 == 0 { b.min.y } else { b.max.y },
+            if k & 4 == 0 { b.min.z } else { b.max.z },
+        );
+        let v = c - basis.origin;
+        let z = v.dot(basis.forward);
+        if !(z > 1e-9 * v.length()) {
+            return None;
+        }
+        // Pixel coordinates of the ray through c (pixel i's centre at i + 1/2).
+        let px = (v.dot(basis.right) / (z * r2) + 1.0) * 0.5 * width as f64;
+        let py = (v.dot(basis.up) / (z * u2) + 1.0) * 0.5 * height as f64;
+        (x0, x1, y0, y1) = (x0.min(px), x1.max(px), y0.min(py), y1.max(py));
+    }
+    let lo = |v: f64, n: u32| (v.floor() - 1.0).clamp(0.0, n as f64) as u32;
+    let hi = |v: f64, n: u32| (v.ceil() + 1.0).clamp(0.0, n as f64) as u32;
+    let (x, y) = (lo(x0, width), lo(y0, height));
+    Some(Rect { x, y, width: hi(x1, width).saturating_sub(x), height: hi(y1, height).saturating_sub(y) })
+}
 
 /// One brick: its texture while resident, and always its value ranges.
 struct BrickSlot {
@@ -262,7 +290,13 @@ impl GpuRenderer {
         let bind_group = self.bind_group.as_ref().expect("bound above").0.clone();
         let params = Params { occ_levels: self.occupancy.levels, ..frame.params.for_brick(bounds, grid, index) };
         let ends = Ends { first: frame.dispatched == 0, last: false };
-        self.dispatch(variant, &bind_group, params, plan, ends, stop)?;
+        let core = self.volume.as_ref().expect("swapped in").bounds;
+        let rect = screen_rect(&frame.camera.basis(self.width, self.height)?, &core, self.width, self.height);
+        if rect.is_some_and(|r| r.width == 0 || r.height == 0) && !ends.first {
+            // The brick is off screen.
+            return Ok(());
+        }
+        self.dispatch(variant, &bind_group, params, plan, ends, rect, stop)?;
         frame.dispatched += plan.passes;
         frame.last = Some((variant, bind_group));
         Ok(())
@@ -286,7 +320,7 @@ impl GpuRenderer {
         };
         let params = Params { resolve: 1, ..frame.params };
         let one = PassPlan { passes: 1, pass_steps: 1, max_steps_needed: 0, per_pixel_state: true, planned_samples: 0 };
-        self.dispatch(variant, &bind_group, params, one, Ends { first: false, last: true }, &mut || false)?;
+        self.dispatch(variant, &bind_group, params, one, Ends { first: false, last: true }, None, &mut || false)?;
         let (truncated_needed, samples) = read_buffers(
             &self.ctx,
             &[&self.frame.output.readback, &self.frame.stats_readback],

@@ -1,6 +1,6 @@
 //! A renderer's frame: check, plan, bind, dispatch, read back.
 
-use super::{Ends, FrameStats, GpuRenderer, SKIP_MIN_EMPTY, STATS_BYTES};
+use super::{Ends, FrameStats, GpuRenderer, Rect, SKIP_MIN_EMPTY, STATS_BYTES};
 use crate::config::RenderConfig;
 use crate::gpu::bindings;
 use crate::error::{try_vec, Error};
@@ -59,7 +59,7 @@ impl GpuRenderer {
         self.bind(variant.layout.hw_filter)?;
         let started = std::time::Instant::now();
         let bind_group = self.bind_group.as_ref().expect("bound above").0.clone();
-        self.dispatch(variant, &bind_group, params, passes, Ends { first: true, last: true }, stop)?;
+        self.dispatch(variant, &bind_group, params, passes, Ends { first: true, last: true }, None, stop)?;
         let (truncated_needed, samples) = read_buffers(
             &self.ctx,
             &[&self.frame.output.readback, &self.frame.stats_readback],
@@ -207,8 +207,14 @@ impl GpuRenderer {
         params: Params,
         plan: PassPlan,
         ends: Ends,
+        rect: Option<Rect>,
         stop: &mut dyn FnMut() -> bool,
     ) -> Result<(), Error> {
+        // The frame's first dispatch starts every ray: it covers the image.
+        let rect = match rect {
+            Some(r) if !ends.first => r,
+            _ => Rect { x: 0, y: 0, width: self.width, height: self.height },
+        };
         let pipeline = self.pipelines.get(&self.ctx, variant)?;
         let f = &self.frame;
         let ctx = &self.ctx;
@@ -226,6 +232,8 @@ impl GpuRenderer {
                 first_pass: first as u32,
                 last_pass: (pass + 1 == plan.passes) as u32,
                 only_dispatch: (first && last) as u32,
+                tile_x: rect.x,
+                tile_y: rect.y,
                 ..params
             };
             // Writes before a submit are ordered with it: each pass sees its own.
@@ -237,7 +245,7 @@ impl GpuRenderer {
                         enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("raymarch"), timestamp_writes: None });
                     cpass.set_pipeline(&pipeline);
                     cpass.set_bind_group(0, bind_group, &[]);
-                    cpass.dispatch_workgroups(self.width.div_ceil(WORKGROUP), self.height.div_ceil(WORKGROUP), 1);
+                    cpass.dispatch_workgroups(rect.width.div_ceil(WORKGROUP), rect.height.div_ceil(WORKGROUP), 1);
                 }
                 if last {
                     enc.copy_buffer_to_buffer(&f.output.storage, 0, &f.output.readback, 0, image_bytes);

@@ -106,6 +106,15 @@ mod frame;
 
 pub use bricked::BrickFrame;
 
+/// Pixels a dispatch covers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Rect {
+    x: u32,
+    y: u32,
+    width: u32,
+    height: u32,
+}
+
 /// Where a dispatch stands in its frame: the first one starts every ray,
 /// the last one hands the image to the readback buffer.
 #[derive(Clone, Copy, Debug)]
