@@ -115,10 +115,12 @@ def case(mode: str, n: int, raw: str, store: str, workers: int) -> dict:
     shape = (n, n, n)
     if mode in ("single", "bricked"):
         data = np.fromfile(raw, dtype=np.float32).reshape(shape)
-        r = renderer(**({"brick_shape": BRICK} if mode == "bricked" else {}))
+        # Resident bricks: a budget that holds them all.
+        r = renderer(**({"brick_shape": BRICK, "memory_budget": 2 * data.nbytes} if mode == "bricked" else {}))
         r.load_volume(Volume(data, min_bounds=BOX[0], max_bounds=BOX[1]))
         res = timed(r.render)
         res["bricks"] = 0 if r.bricks is None else r.bricks["count"]
+        assert mode == "single" or r.bricks["resident"]
     elif mode == "out_of_core":
         mm = np.memmap(raw, dtype=np.float32, mode="r", shape=shape)
         budget = n ** 3  # a quarter of the volume's float32 bytes

@@ -9,7 +9,7 @@
 //! removes samples whose opacity is exactly 0: images are unchanged.
 
 use crate::transfer::ValueMap;
-use crate::volume::VolumeView;
+use crate::volume::{sanitize, VolumeView, Voxels};
 
 pub const BLOCK: usize = 8;
 
@@ -23,31 +23,62 @@ pub struct MinMaxGrid {
 
 impl MinMaxGrid {
     pub fn build(vol: &VolumeView) -> MinMaxGrid {
-        let [s0, s1, s2] = vol.dims;
+        // One typed loop per stored format (the same values as
+        // `Voxels::value`, NaN included: min/max ignore it).
+        match vol.voxels {
+            Voxels::F32(v) => Self::build_from(vol.dims, |i| sanitize(v[i])),
+            Voxels::U8(v) => Self::build_from(vol.dims, |i| (v[i] as f64 / 255.0) as f32),
+            Voxels::U16(v) => Self::build_from(vol.dims, |i| (v[i] as f64 / 65535.0) as f32),
+        }
+    }
+
+    /// Min and max over each cell's window of voxels, [cB - 1, (c+1)B] along
+    /// every axis (what a sample in the cell can read), one axis at a time:
+    /// about 1.3 reads per voxel instead of the 2 of a window per cell.
+    fn build_from(dims: [usize; 3], value: impl Fn(usize) -> f32) -> MinMaxGrid {
+        let [s0, s1, s2] = dims;
         let g = [s0.div_ceil(BLOCK), s1.div_ceil(BLOCK), s2.div_ceil(BLOCK)];
-        let cells = g[0] * g[1] * g[2];
-        let mut min = vec![f32::INFINITY; cells];
-        let mut max = vec![f32::NEG_INFINITY; cells];
-        // Voxels whose value a sample in cell c can read: [cB - 1, (c+1)B].
         let window = |c: usize, n: usize| (c * BLOCK).saturating_sub(1)..((c + 1) * BLOCK + 1).min(n);
-        for a in 0..g[0] {
+        // Along axis 2: (s0, s1, g2).
+        let mut lo2 = vec![f32::INFINITY; s0 * s1 * g[2]];
+        let mut hi2 = vec![f32::NEG_INFINITY; s0 * s1 * g[2]];
+        for row in 0..s0 * s1 {
+            for c in 0..g[2] {
+                let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+                for k in window(c, s2) {
+                    let v = value(row * s2 + k);
+                    lo = lo.min(v);
+                    hi = hi.max(v);
+                }
+                lo2[row * g[2] + c] = lo;
+                hi2[row * g[2] + c] = hi;
+            }
+        }
+        // Along axis 1: (s0, g1, g2).
+        let mut lo1 = vec![f32::INFINITY; s0 * g[1] * g[2]];
+        let mut hi1 = vec![f32::NEG_INFINITY; s0 * g[1] * g[2]];
+        for i in 0..s0 {
             for b in 0..g[1] {
-                for c in 0..g[2] {
-                    let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
-                    for i in window(a, s0) {
-                        for j in window(b, s1) {
-                            let row = (i * s1 + j) * s2;
-                            for k in window(c, s2) {
-                                // NaN voxels are empty: min/max ignore them.
-                                let v = vol.voxels.value(row + k) as f32;
-                                lo = lo.min(v);
-                                hi = hi.max(v);
-                            }
-                        }
+                let out = (i * g[1] + b) * g[2];
+                for j in window(b, s1) {
+                    let src = (i * s1 + j) * g[2];
+                    for c in 0..g[2] {
+                        lo1[out + c] = lo1[out + c].min(lo2[src + c]);
+                        hi1[out + c] = hi1[out + c].max(hi2[src + c]);
                     }
-                    let o = (a * g[1] + b) * g[2] + c;
-                    min[o] = lo;
-                    max[o] = hi;
+                }
+            }
+        }
+        drop((lo2, hi2));
+        // Along axis 0: (g0, g1, g2).
+        let plane = g[1] * g[2];
+        let mut min = vec![f32::INFINITY; g[0] * plane];
+        let mut max = vec![f32::NEG_INFINITY; g[0] * plane];
+        for a in 0..g[0] {
+            for i in window(a, s0) {
+                for o in 0..plane {
+                    min[a * plane + o] = min[a * plane + o].min(lo1[i * plane + o]);
+                    max[a * plane + o] = max[a * plane + o].max(hi1[i * plane + o]);
                 }
             }
         }
@@ -153,6 +184,48 @@ mod tests {
         data[8] = 0.95;
         let v = VolumeView::new([1, 1, 24], Voxels::F32(&data), None, Bounds::default()).unwrap();
         assert_eq!(MinMaxGrid::build(&v).max, vec![0.95, 0.95, 0.5]);
+    }
+
+    #[test]
+    fn separable_build_equals_the_window_of_every_cell() {
+        // Odd sizes (remainder cells), NaN, infinities and unorm data.
+        let dims = [19, 8, 27];
+        let n = dims.iter().product::<usize>();
+        let mut x = 12345u32;
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            x
+        };
+        let mut f: Vec<f32> = (0..n).map(|_| (next() % 1000) as f32 / 999.0).collect();
+        f[5] = f32::NAN;
+        f[300] = f32::INFINITY;
+        f[301] = f32::NEG_INFINITY;
+        let u: Vec<u16> = (0..n).map(|_| (next() % 65536) as u16).collect();
+        for voxels in [Voxels::F32(&f), Voxels::U16(&u)] {
+            let v = VolumeView::new(dims, voxels, None, Bounds::default()).unwrap();
+            let g = MinMaxGrid::build(&v);
+            let window = |c: usize, n: usize| (c * BLOCK).saturating_sub(1)..((c + 1) * BLOCK + 1).min(n);
+            for a in 0..g.dims[0] {
+                for b in 0..g.dims[1] {
+                    for c in 0..g.dims[2] {
+                        let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+                        for i in window(a, dims[0]) {
+                            for j in window(b, dims[1]) {
+                                for k in window(c, dims[2]) {
+                                    let val = v.voxels.value((i * dims[1] + j) * dims[2] + k) as f32;
+                                    lo = lo.min(val);
+                                    hi = hi.max(val);
+                                }
+                            }
+                        }
+                        let o = (a * g.dims[1] + b) * g.dims[2] + c;
+                        assert_eq!((g.min[o], g.max[o]), (lo, hi), "cell {a} {b} {c}");
+                    }
+                }
+            }
+        }
     }
 
     #[test]

@@ -176,3 +176,34 @@ def test_dask_and_xarray_arrays_render_like_numpy(reference):
     np.testing.assert_allclose(r2.volume.min_bounds, BOX[0], atol=1e-6)
     np.testing.assert_allclose(r2.volume.max_bounds, BOX[1], atol=1e-6)
     assert np.abs(r2.render(dtype=np.float32) - want).max() < TOL
+
+
+@pytest.mark.parametrize("kind", ["normals", "float16", "float16_normals", "uint8", "uint16_value_range"])
+def test_stored_formats_and_normals_brick_like_one_texture(kind, tmp_path):
+    data = scene_data()
+    kw = {}
+    precision = "float32"
+    if kind in ("normals", "float16_normals"):
+        kw["normals"] = pyvr.datasets.compute_normal_volume(data)
+    if kind.startswith("float16"):
+        precision = "float16"
+    if kind == "uint8":
+        data = (np.clip(data, 0, 1) * 255).astype(np.uint8)
+    if kind == "uint16_value_range":
+        data = (np.clip(data, 0, 1) * 4000).astype(np.uint16)
+        kw["value_range"] = (0.0, 4000.0)
+    vol = Volume(data=data, min_bounds=BOX[0], max_bounds=BOX[1], **kw)
+    images = []
+    for r in (renderer(), renderer(brick_shape=(12, 10, 9))):
+        r.load_volume(vol, precision=precision)
+        images.append(r.render(dtype=np.float32, premultiplied=True))
+    assert images[0][..., 3].max() > 0.2
+    assert np.abs(images[0] - images[1]).max() < TOL
+    if "normals" in kind:
+        # Normals held in memmaps are read brick by brick too.
+        path = tmp_path / "n.raw"
+        kw["normals"].astype(np.float32).tofile(path)
+        mm = np.memmap(path, dtype=np.float32, mode="r", shape=kw["normals"].shape)
+        r = renderer(brick_shape=(12, 10, 9))
+        r.load_volume(Volume(data=data, normals=mm, min_bounds=BOX[0], max_bounds=BOX[1]), precision=precision)
+        assert np.abs(r.render(dtype=np.float32, premultiplied=True) - images[0]).max() < TOL

@@ -111,7 +111,8 @@ def _read_file_block(mm: np.memmap, ranges) -> Optional[np.ndarray]:
     import mmap
     import os
 
-    if not (isinstance(mm.base, mmap.mmap) and mm.flags.c_contiguous and getattr(mm, "filename", None)):
+    if not (mm.ndim == 3 and len(ranges) == 3 and isinstance(mm.base, mmap.mmap) and mm.flags.c_contiguous
+            and getattr(mm, "filename", None)):
         return None
     (i0, i1), (j0, j1), (k0, k1) = [(int(lo), int(hi)) for lo, hi in ranges]
     n1, n2 = mm.shape[1], mm.shape[2]
@@ -197,7 +198,8 @@ class BrickedVolume:
         self.ranges = [tuple(tuple(r) for r in b) for b in engine.brick_ranges()]
         self.resident = self.device_bytes() <= self.memory_budget
 
-    def upload(self, engine, i: int) -> None:
+    def read(self, i: int):
+        """Brick ``i``'s voxels and normals, in memory and ready to upload."""
         from .renderer import prepare_normals, prepare_voxels
 
         r = self.ranges[i]
@@ -205,13 +207,19 @@ class BrickedVolume:
         normals = None
         if self.normals is not None:
             normals = prepare_normals(read_block(self.normals, list(r) + [(0, 3)]))
-        engine.set_brick(i, block, normals, self.precision)
+        return block, normals
 
     def bricks_of(self, engine, order) -> Iterator[int]:
         """Bricks of a frame in order, each on the device while it is used."""
         for i in order:
             if not engine.brick_resident(i):
-                self.upload(engine, i)
+                # Read while the device renders the brick before; then let it
+                # finish, so that streamed bricks never pile up on the device.
+                block, normals = self.read(i)
+                if not self.resident:
+                    engine.wait_idle()
+                engine.set_brick(i, block, normals, self.precision)
+                del block, normals
             yield i
             if not self.resident:
                 engine.evict_brick(i)

@@ -157,13 +157,49 @@ def _scene(renderer, volume) -> dict:
     bounds = (_vec(volume.min_bounds), _vec(volume.max_bounds))
     shape = tuple(int(v) for v in volume.data.shape)
     ghost = bricks.ghost_for(cfg.step_size, bounds, shape)
-    core = bricks.brick_shape_for(shape, 4, ghost, device_limits()["max_texture_dimension_3d"], renderer._brick_shape)
+    requested = renderer._brick_shape
+    if requested is None:
+        # Bricks on the array's own chunks when they are regular: each task
+        # then reads its chunk and only the ghost slabs of its neighbours.
+        requested = _regular_chunks(volume.data)
+    core = bricks.brick_shape_for(shape, 4, ghost, device_limits()["max_texture_dimension_3d"], requested)
     return {
         "width": renderer.width, "height": renderer.height, "lut": renderer._lut, "value_map": renderer._value_map,
         "clip": renderer._crop, "skip_empty": renderer.empty_space_skipping, "dims": shape, "bounds": bounds,
         "core": core, "ghost": ghost, "precision": renderer._precision, "camera": renderer._frame_camera(),
         "light": renderer._light_args, "config": cfg,
     }
+
+
+def _regular_chunks(data) -> Optional[tuple]:
+    """A dask array's chunk shape when all its chunks but the last along each
+    axis have it, and it is not tiny; None otherwise."""
+    chunks = getattr(data, "chunks", None)
+    if type(data).__module__.split(".")[0] == "xarray":
+        chunks = getattr(data.data, "chunks", None)
+    if not chunks or not isinstance(chunks[0], tuple) or len(chunks) != 3:
+        return None
+    shape = tuple(c[0] for c in chunks)
+    if any(len(set(c[:-1])) > 1 or c[-1] > c[0] for c in chunks) or min(shape) < 32:
+        return None
+    return shape
+
+
+def _padded_blocks(arr, core, ghost, extra_axis: bool):
+    """The array cut on the brick cores, each block with ``ghost`` voxels of
+    its neighbours (none past the volume's faces), as dask's overlap builds
+    them: every chunk is read once and its edge slabs shared. Returns the
+    blocks' delayed values in brick order (axis 2 fastest)."""
+    da = require("dask.array", "distributed", "pyvr.distributed")
+    chunks = tuple(core) + ((3,) if extra_axis else ())
+    arr = arr.rechunk(chunks)
+    depth = {0: ghost, 1: ghost, 2: ghost}
+    if extra_axis:
+        depth[3] = 0
+    if ghost > 0 and min(min(c) for c in arr.chunks[:3]) >= ghost:
+        arr = da.overlap.overlap(arr, depth=depth, boundary="none")
+        return list(arr.to_delayed().reshape(-1))
+    return None
 
 
 def _as_dask(data, chunks):
@@ -208,11 +244,16 @@ def _graph(renderer, volume):
     ranges, order = _core.brick_layout(spec["dims"], spec["core"], spec["ghost"], tuple(float(v) for v in eye))
     delayed = dask.delayed
     spec_d = delayed(spec, pure=False)
+    blocks = _padded_blocks(data, spec["core"], spec["ghost"], False)
+    nblocks = None if normals is None else _padded_blocks(normals, spec["core"], spec["ghost"], True)
     parts: List[Any] = []
     for i in order:
         sl = tuple(slice(lo, hi) for lo, hi in ranges[i])
-        nb = None if normals is None else normals[sl]
-        parts.append(delayed(_render_brick, pure=False)(spec_d, i, data[sl], nb))
+        # Dask's overlapped blocks where it could make them, slices otherwise
+        # (a chunk thinner than the ghosts).
+        block = data[sl] if blocks is None else blocks[i]
+        nb = None if normals is None else (normals[sl] if nblocks is None else nblocks[i])
+        parts.append(delayed(_render_brick, pure=False)(spec_d, i, block, nb))
     while len(parts) > 1:
         parts = [delayed(combine, pure=False)(parts[k], parts[k + 1], kind) if k + 1 < len(parts) else parts[k]
                  for k in range(0, len(parts), 2)]

@@ -39,6 +39,12 @@ pub struct Variant {
     pub pre_integrated: bool,
 }
 
+/// Whether rays march from the far end: only where the order changes the
+/// arithmetic (absorption and emission sums do not depend on it).
+pub fn marches_back_to_front(cfg: &RenderConfig) -> bool {
+    cfg.order == Order::BackToFront && cfg.model.integrates() && !matches!(cfg.model, Model::Absorption | Model::Emission)
+}
+
 impl Variant {
     /// The variant a frame needs: only what its model, light and config use.
     /// `skip_empty` says the occupancy grid has empty cells worth skipping.
@@ -50,8 +56,7 @@ impl Variant {
             m if m.uses_light() => shading,
             _ => Shading::AmbientOnly,
         };
-        let back_to_front = cfg.order == Order::BackToFront && model.integrates() && model != Model::Absorption
-            && model != Model::Emission;
+        let back_to_front = marches_back_to_front(cfg);
         Variant {
             // Which texture holds the normals only matters where they are read.
             layout: Layout { normals_in_volume: layout.normals_in_volume && shading == Shading::Normals, ..layout },

@@ -295,6 +295,13 @@ impl PyRenderer {
         self.inner.brick_resident(index)
     }
 
+    /// Waits until the device has finished the work submitted so far (and
+    /// freed what it no longer uses): streamed bricks must not pile up.
+    fn wait_idle(&mut self, py: Python<'_>) -> PyResult<()> {
+        let inner = &mut *self.inner;
+        run_released(py, |_| inner.wait_idle())
+    }
+
     /// Starts a bricked frame; returns the bricks to render, in order.
     #[pyo3(signature = (camera, light, config, keep_state = false))]
     fn begin_bricks(

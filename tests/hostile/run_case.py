@@ -261,6 +261,23 @@ def case_memmap_stream(path, shape, budget_mib):
     return f"base {base:.0f} bricks {r.bricks['count']} device {r.bricks['device_bytes'] >> 20}"
 
 
+def case_fork_bricked():
+    """A forked child renders with its parent's bricked renderer."""
+    from pyvr import VolumeRenderer
+    from pyvr.volume import Volume
+
+    data = np.random.RandomState(1).rand(30, 26, 22).astype(np.float32)
+    r = VolumeRenderer(32, 32, brick_shape=(8, 8, 8))
+    r.load_volume(Volume(data))
+    want = r.render(dtype=np.float32)
+    pid = os.fork()
+    if pid == 0:
+        got = r.render(dtype=np.float32)
+        os._exit(0 if np.abs(got - want).max() < 1e-4 else 3)
+    _, status = os.waitpid(pid, 0)
+    return f"child {os.waitstatus_to_exitcode(status)}"
+
+
 def case_xdg():
     os.environ.pop("XDG_RUNTIME_DIR", None)
     renderer()

@@ -81,6 +81,11 @@ def test_a_forked_child_renders_with_the_parents_renderer():
     assert result == "OK child 0 0", result
 
 
+def test_a_forked_child_renders_with_the_parents_bricked_renderer():
+    result, _ = run("fork_bricked", timeout=120)
+    assert result == "OK child 0", result
+
+
 @pytest.mark.parametrize("method", ["fork", "spawn", "forkserver"])
 def test_multiprocessing_pools_render_the_same_frames(method):
     result, _ = run("pool", method, timeout=120)

@@ -17,11 +17,11 @@ use crate::bricks::BrickGrid;
 use crate::config::RenderConfig;
 use crate::error::Error;
 use crate::gpu::params::{world_unit, FrameInputs, Params};
-use crate::gpu::pipeline::Variant;
+use crate::gpu::pipeline::{marches_back_to_front, Variant};
 use crate::gpu::plan::PassPlan;
 use crate::gpu::readback::read_buffers;
 use crate::gpu::resources::{OccSource, Occupancy, RayState, VolumeGpu};
-use crate::model::{Model, Order};
+use crate::model::Model;
 use crate::occupancy::MinMaxGrid;
 use crate::scene::{Bounds, Camera, Light, RayBasis};
 use crate::volume::{Precision, VolumeView};
@@ -165,6 +165,18 @@ impl GpuRenderer {
         }
     }
 
+    /// Waits for the device to finish everything submitted, which frees the
+    /// textures of evicted bricks: a frame streaming bricks faster than the
+    /// device renders them would otherwise hold them all at once.
+    pub fn wait_idle(&self) -> Result<(), Error> {
+        self.check_process()?;
+        self.ctx
+            .device
+            .poll(wgpu::PollType::Wait { submission_index: None, timeout: None })
+            .map(drop)
+            .map_err(|e| Error::Gpu(format!("waiting for the GPU failed: {e}")))
+    }
+
     pub fn brick_resident(&self, index: usize) -> bool {
         self.bricks.as_ref().and_then(|b| b.slots.get(index)).is_some_and(|s| s.volume.is_some())
     }
@@ -206,7 +218,7 @@ impl GpuRenderer {
         let dims = DVec3::new(b.grid.dims[0] as f64, b.grid.dims[1] as f64, b.grid.dims[2] as f64);
         let eye = (camera.position - b.bounds.min) / b.bounds.extent() * dims;
         let mut order = b.grid.front_to_back(eye);
-        if cfg.order == Order::BackToFront && cfg.model.integrates() && cfg.model != Model::Absorption {
+        if marches_back_to_front(cfg) {
             order.reverse();
         }
         let rows = &self.tables.rows;
