@@ -172,10 +172,11 @@ def models(results: list, cores: int) -> dict:
     - size: T(N) = a + b N^3 per path (rendering at a fixed step costs the
       same at any N; reading, converting and uploading scale with the
       voxels), fitted on the two smallest sizes and predicting the rest;
-    - workers: T(P) = T_s + T_p max(1, c P / C) / P, with T_p the brick tasks
-      (read + render) and T_s the combine chain; here each worker's
-      renderer (lavapipe) uses all C cores (c = C), so P workers share them
-      and the model predicts T(2) = T(1) from the one-worker measurement.
+    - workers: T(P) = T_dev + T_host / min(P, C). The device's part (the
+      ray marching, which lavapipe spreads over all C cores, so workers on
+      one machine share it) is the resident-bricks frame of the same size;
+      the rest of the one-worker frame (reading chunks, ghost slabs,
+      uploads, combines, scheduling) runs on one core per worker.
     """
     ok = {(r["n"], r["mode"], r["workers"]): r["res"]["frame_ms"] for r in results if "frame_ms" in r["res"]}
     pred = {}
@@ -188,10 +189,9 @@ def models(results: list, cores: int) -> dict:
             for n in sizes[2:]:
                 pred[(n, mode, workers)] = ("size", t0 + b * (n ** 3 - n0 ** 3))
     for (n, mode, workers), t in ok.items():
-        one = ok.get((n, "cluster", 1))
-        if mode == "cluster" and workers > 1 and one is not None:
-            c = cores  # lavapipe: one renderer uses every core
-            pred[(n, mode, workers)] = ("workers", one * max(1.0, c * workers / cores) / workers)
+        one, dev = ok.get((n, "cluster", 1)), ok.get((n, "bricked", 0))
+        if mode == "cluster" and workers > 1 and one is not None and dev is not None:
+            pred[(n, mode, workers)] = ("workers", dev + max(one - dev, 0.0) / min(workers, cores))
     return pred
 
 
@@ -226,7 +226,7 @@ def table(results: list, command: str) -> None:
              "Out-of-core reads a raw memmapped file under a device budget of a quarter of the volume; "
              "the cluster reads an uncompressed zarr store (chunks 256^3) on this machine's cores. Frames: one, "
              "then the median of three (of one past 1024^3). Model: see docs/scale.md (size: fitted on the two "
-             "smallest sizes of the same path; workers: predicted from the one-worker row).",
+             "smallest sizes of the same path; workers: from the one-worker and resident-bricks rows).",
     )
 
 

@@ -207,3 +207,25 @@ def test_stored_formats_and_normals_brick_like_one_texture(kind, tmp_path):
         r = renderer(brick_shape=(12, 10, 9))
         r.load_volume(Volume(data=data, normals=mm, min_bounds=BOX[0], max_bounds=BOX[1]), precision=precision)
         assert np.abs(r.render(dtype=np.float32, premultiplied=True) - images[0]).max() < TOL
+
+
+def test_bricks_out_of_view_or_crop_are_never_read():
+    data = scene_data()
+    vol = Volume(data=data, min_bounds=BOX[0], max_bounds=BOX[1])
+    near = Camera(target=np.array([0.3, 0.2, 0.1]), azimuth=0.3, elevation=0.2, roll=0.0, distance=1.5, fov=0.15)
+    whole, bricked = renderer(), renderer(brick_shape=(9, 11, 7))
+    for r in (whole, bricked):
+        r.load_volume(vol)
+        r.set_camera(near)
+    a, b = whole.render(dtype=np.float32), bricked.render(dtype=np.float32)
+    assert a[..., 3].max() > 0.05 and np.abs(a - b).max() < TOL
+    read = bricked.counters()["volume_uploads"]
+    assert 0 < read < bricked.bricks["count"] // 2, f"{read} of {bricked.bricks['count']} bricks read"
+    # A crop box leaves the bricks outside it unread as well.
+    cropped = renderer(brick_shape=(9, 11, 7))
+    cropped.load_volume(vol)
+    cropped.set_crop_box((-1, -0.8, -0.7), (0, 0, 0))
+    whole.set_camera(Camera.from_spherical(np.zeros(3), 0.7, 0.4, 0.0, 3.0))
+    whole.set_crop_box((-1, -0.8, -0.7), (0, 0, 0))
+    assert np.abs(cropped.render(dtype=np.float32) - whole.render(dtype=np.float32)).max() < TOL
+    assert cropped.counters()["volume_uploads"] <= 3 * 2 * 3

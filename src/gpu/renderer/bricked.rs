@@ -55,6 +55,15 @@ fn screen_rect(basis: &RayBasis, b: &Bounds, width: u32, height: u32) -> Option<
     Some(Rect { x, y, width: hi(x1, width).saturating_sub(x), height: hi(y1, height).saturating_sub(y) })
 }
 
+/// Brick `index`'s core box in world coordinates.
+fn core_box(grid: &BrickGrid, bounds: &Bounds, index: usize) -> Bounds {
+    let core = grid.core_range(index);
+    let at = |a: usize, v: usize| v as f64 / grid.dims[a] as f64;
+    let lo = DVec3::new(at(0, core[0][0]), at(1, core[1][0]), at(2, core[2][0]));
+    let hi = DVec3::new(at(0, core[0][1]), at(1, core[1][1]), at(2, core[2][1]));
+    Bounds { min: bounds.min + lo * bounds.extent(), max: bounds.min + hi * bounds.extent() }
+}
+
 /// One brick: its texture while resident, and always its value ranges.
 struct BrickSlot {
     volume: Option<VolumeGpu>,
@@ -128,11 +137,7 @@ impl GpuRenderer {
         }
         let mut gpu = VolumeGpu::upload(&ctx, vol, precision)?;
         // Passes are planned over the brick's own box.
-        let core = grid.core_range(index);
-        let at = |a: usize, v: usize| v as f64 / grid.dims[a] as f64;
-        let lo = DVec3::new(at(0, core[0][0]), at(1, core[1][0]), at(2, core[2][0]));
-        let hi = DVec3::new(at(0, core[0][1]), at(1, core[1][1]), at(2, core[2][1]));
-        gpu.bounds = Bounds { min: bounds.min + lo * bounds.extent(), max: bounds.min + hi * bounds.extent() };
+        gpu.bounds = core_box(&grid, &bounds, index);
         let bytes = gpu.bytes;
         slot.grid = Some(gpu.grid.clone());
         slot.volume = Some(gpu);
@@ -170,6 +175,8 @@ impl GpuRenderer {
     /// device renders them would otherwise hold them all at once.
     pub fn wait_idle(&self) -> Result<(), Error> {
         self.check_process()?;
+        // Uploads wait in the queue for a submit: flush them first.
+        self.ctx.queue.submit([]);
         self.ctx
             .device
             .poll(wgpu::PollType::Wait { submission_index: None, timeout: None })
@@ -229,7 +236,14 @@ impl GpuRenderer {
             (Some(g), m) if m.skips_transparent() && self.skip_empty => g.occupancy(rows, self.value_map).contains(&1),
             (Some(_), _) => true,
         };
-        let order: Vec<usize> = order.into_iter().filter(|&i| needed(&b.slots[i])).collect();
+        // Bricks outside the crop box or the view are never read.
+        let (width, height) = (self.width, self.height);
+        let seen = |i: usize| {
+            let core = core_box(&b.grid, &b.bounds, i);
+            let cropped = self.clip.map_or(Some(core), |c| core.intersection(&c));
+            cropped.is_some_and(|c| screen_rect(&basis, &c, width, height).is_none_or(|r| r.width > 0 && r.height > 0))
+        };
+        let order: Vec<usize> = order.into_iter().filter(|&i| needed(&b.slots[i]) && seen(i)).collect();
         let pixels = self.width as u64 * self.height as u64;
         if self.frame.ray_state.pixels < pixels {
             let limit = self.ctx.max_storage_bytes();
