@@ -229,3 +229,15 @@ def test_bricks_out_of_view_or_crop_are_never_read():
     whole.set_crop_box((-1, -0.8, -0.7), (0, 0, 0))
     assert np.abs(cropped.render(dtype=np.float32) - whole.render(dtype=np.float32)).max() < TOL
     assert cropped.counters()["volume_uploads"] <= 3 * 2 * 3
+
+
+def test_a_copy_on_write_memmap_renders_its_changes(reference, tmp_path):
+    data, want = reference
+    path = tmp_path / "zeros.raw"
+    np.zeros(data.shape, np.float32).tofile(path)
+    mm = np.memmap(path, dtype=np.float32, mode="c", shape=data.shape)
+    mm[:] = data  # private changes: the file still holds zeros
+    r = renderer(brick_shape=(16, 16, 16), memory_budget=64 * 1024)
+    r.load_volume(Volume(data=mm, min_bounds=BOX[0], max_bounds=BOX[1]))
+    assert np.abs(r.render(dtype=np.float32) - want).max() < TOL
+    assert np.array_equal(mm, data)  # and they are still there

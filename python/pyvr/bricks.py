@@ -111,8 +111,9 @@ def _read_file_block(mm: np.memmap, ranges) -> Optional[np.ndarray]:
     import mmap
     import os
 
+    # A copy-on-write map ("c") may hold changes the file does not.
     if not (mm.ndim == 3 and len(ranges) == 3 and isinstance(mm.base, mmap.mmap) and mm.flags.c_contiguous
-            and getattr(mm, "filename", None)):
+            and getattr(mm, "filename", None) and getattr(mm, "mode", None) in ("r", "r+", "w+")):
         return None
     (i0, i1), (j0, j1), (k0, k1) = [(int(lo), int(hi)) for lo, hi in ranges]
     n1, n2 = mm.shape[1], mm.shape[2]
@@ -145,15 +146,21 @@ def _release_pages(mm: np.memmap) -> None:
             pass
 
 
-def brick_shape_for(shape, texel_bytes: int, ghost: int, max_side: int, requested=None) -> Tuple[int, int, int]:
+def check_brick_shape(requested) -> Tuple[int, int, int]:
+    """``brick_shape`` as three positive integers, or a clear error."""
+    from ._numbers import check_count
+
+    if isinstance(requested, (str, bytes)) or not hasattr(requested, "__len__") or len(requested) != 3:
+        raise ValueError(f"brick_shape must be three positive integers, got {requested!r}")
+    for v in requested:
+        check_count("brick_shape", v)
+    return tuple(int(v) for v in requested)
+
+
+def brick_shape_for(shape, ghost: int, max_side: int, requested=None) -> Tuple[int, int, int]:
     """The core shape of a brick: ``requested`` when given, else cubes of
     DEFAULT_BRICK_SIDE, within the device's texture limit with ghosts."""
-    if requested is not None:
-        core = tuple(int(v) for v in requested)
-        if len(core) != 3 or min(core) < 1:
-            raise ValueError(f"brick_shape must be three positive integers, got {requested!r}")
-    else:
-        core = (DEFAULT_BRICK_SIDE,) * 3
+    core = check_brick_shape(requested) if requested is not None else (DEFAULT_BRICK_SIDE,) * 3
     limit = max_side - 2 * ghost
     if limit < 1:
         raise ValueError(

@@ -162,7 +162,7 @@ def _scene(renderer, volume) -> dict:
         # Bricks on the array's own chunks when they are regular: each task
         # then reads its chunk and only the ghost slabs of its neighbours.
         requested = _regular_chunks(volume.data)
-    core = bricks.brick_shape_for(shape, 4, ghost, device_limits()["max_texture_dimension_3d"], requested)
+    core = bricks.brick_shape_for(shape, ghost, device_limits()["max_texture_dimension_3d"], requested)
     return {
         "width": renderer.width, "height": renderer.height, "lut": renderer._lut, "value_map": renderer._value_map,
         "clip": renderer._crop, "skip_empty": renderer.empty_space_skipping, "dims": shape, "bounds": bounds,

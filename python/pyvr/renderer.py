@@ -316,9 +316,9 @@ class VolumeRenderer:
         if memory_budget is not None:
             check_count("memory_budget", memory_budget)
         if brick_shape is not None:
-            from .bricks import brick_shape_for
+            from .bricks import check_brick_shape
 
-            brick_shape_for((1, 1, 1), 1, 0, 2, brick_shape)
+            brick_shape = check_brick_shape(brick_shape)
         for name, v in (("width", width), ("height", height)):
             check_count(name, v, high=2**32 - 1)
         if config is None:
@@ -452,12 +452,12 @@ class VolumeRenderer:
                 or device_bytes > min(limits["max_buffer_size"], budget))
 
     def _layout_bricks(self, brick) -> None:
-        """Cuts ``brick``'s volume for this device and uploads (or indexes) its bricks."""
+        """Cuts ``brick``'s volume for this device (nothing is read until a
+        frame needs it)."""
         from .bricks import brick_shape_for
 
         limits = device_limits()
-        brick.core = brick_shape_for(brick.shape, brick.texel_bytes(), brick.ghost,
-                                     limits["max_texture_dimension_3d"], self._brick_shape)
+        brick.core = brick_shape_for(brick.shape, brick.ghost, limits["max_texture_dimension_3d"], self._brick_shape)
         self._bricked = None
         brick.layout(self._engine)
         self._bricked = brick
