@@ -224,13 +224,13 @@ def gl_scenes():
     return out
 
 
-def case_gl_frames():
+def case_gl_frames(path):
     os.environ["PYVR_BACKEND"] = "gl"
     sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
     frames = gl_scenes()
     from pyvr import _core
 
-    np.savez(sys.argv[2], device=_core.device_info(), **frames)
+    np.savez(path, device=_core.device_info(), **frames)
     print("OK saved")
     return True
 
