@@ -207,7 +207,8 @@ def table(results: list, command: str) -> None:
         if "error" in res:
             rows.append([f"{n}^3", f"{gib:.3g}", label, "-", "-", "-", "-", "-", res["error"]])
             continue
-        note = f"{res['bricks']} bricks" if res.get("bricks") else "one texture"
+        count = res.get("bricks", 0)
+        note = f"{count} brick{'s' if count != 1 else ''}" if count else "one texture"
         if "budget_mib" in res:
             note += f", device budget {res['budget_mib']:.0f} MiB"
         if "worker_peak_mib" in res:
