@@ -30,10 +30,12 @@ impl BrickGrid {
             )));
         }
         let grid = BrickGrid { dims, core: [0, 1, 2].map(|a| core[a].min(dims[a])), ghost };
-        if grid.len() > 1 << 20 {
+        // Checked: shapes come from the caller, and a wrapped product would pass the limit.
+        let count = grid.counts().iter().try_fold(1usize, |n, &c| n.checked_mul(c));
+        if count.is_none_or(|n| n > 1 << 20) {
             return Err(Error::InvalidInput(format!(
                 "volume {dims:?} in bricks of {core:?} makes {} bricks, over the limit of 2^20: use larger bricks",
-                grid.len()
+                count.map_or("more than 2^64".to_string(), |n| n.to_string())
             )));
         }
         Ok(grid)
@@ -67,7 +69,7 @@ impl BrickGrid {
     /// The voxels brick `index` stores: its core and ghosts, within the volume.
     pub fn padded_range(&self, index: usize) -> Ranges {
         let core = self.core_range(index);
-        [0, 1, 2].map(|a| [core[a][0].saturating_sub(self.ghost), (core[a][1] + self.ghost).min(self.dims[a])])
+        [0, 1, 2].map(|a| [core[a][0].saturating_sub(self.ghost), core[a][1].saturating_add(self.ghost).min(self.dims[a])])
     }
 
     /// Every brick in an order that is front to back along every ray from
@@ -100,7 +102,8 @@ impl BrickGrid {
         if !h.is_finite() {
             return usize::MAX / 4;
         }
-        h.ceil() as usize + 2
+        // Saturating: an absurd step asks for more ghosts than any device holds.
+        (h.ceil() as usize).saturating_add(2)
     }
 }
 
@@ -172,6 +175,12 @@ mod tests {
         assert!(BrickGrid::new([0, 4, 4], [2, 2, 2], 1).is_err());
         assert!(BrickGrid::new([4, 4, 4], [0, 2, 2], 1).is_err());
         assert!(BrickGrid::new([4096, 4096, 4096], [2, 2, 2], 1).is_err());
+        // A product of counts that would wrap is refused, not wrapped.
+        assert!(BrickGrid::new([usize::MAX / 2, usize::MAX / 2, 4], [1, 1, 1], 0).is_err());
+        let g = BrickGrid::new([8, 8, 8], [4, 4, 4], usize::MAX).unwrap();
+        assert_eq!(g.padded_range(7), [[0, 8]; 3]);
+        assert_eq!(BrickGrid::ghost_for(1e300, DVec3::splat(1e-300)), usize::MAX / 4);
+        assert_eq!(BrickGrid::ghost_for(1e18, DVec3::splat(1e-2)), usize::MAX);
         assert_eq!(BrickGrid::ghost_for(0.05, DVec3::splat(0.01)), 7);
     }
 }
