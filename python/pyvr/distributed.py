@@ -224,8 +224,8 @@ def render(renderer, volume, client=None, *, dtype=np.uint8, premultiplied: bool
     client = _client(client)
     if not isinstance(volume, Volume):
         volume = bricks.as_volume(volume)
-    if dtype not in (np.uint8, np.float32) and np.dtype(dtype) not in (np.uint8, np.float32):
-        raise ValueError(f"dtype must be numpy.uint8 or numpy.float32, got {dtype!r}")
+    if np.dtype(dtype) not in (np.dtype(np.uint8), np.dtype(np.float32)):
+        raise ValueError(f"dtype must be uint8 or float32, got {np.dtype(dtype)}")
     img = client.compute(_graph(renderer, volume)).result()
     return _output(img, dtype, premultiplied)
 
@@ -261,17 +261,11 @@ def _graph(renderer, volume):
 
 
 def _output(img: np.ndarray, dtype, premultiplied: bool) -> np.ndarray:
-    from . import _core
-    from .renderer import _straight
+    from .renderer import output_image
 
-    img = np.require(img, np.float32, ["C", "A"])
-    if np.dtype(dtype) == np.uint8:
-        return _core.quantize(img, not premultiplied)
-    if premultiplied:
-        return img
-    out = img.copy()
-    out[..., :3] = _straight(img)
-    return out
+    # What comes back from the cluster may be read-only or unaligned.
+    img = np.require(img, np.float32, ["C", "A", "W"])
+    return output_image(img, np.dtype(dtype), premultiplied, None, "lower")
 
 
 def _render_frame(volume, state: dict, camera, options: dict) -> np.ndarray:
@@ -302,17 +296,12 @@ def render_path(renderer, path, n_frames: Optional[int] = None, client=None, *, 
     workers once), transfer functions, light and config. Returns the frames
     in order, as ``renderer.render_path`` yields them (origin "upper" by
     default; origin, background and dtype as there)."""
-    from .renderer import _colour, _path_cameras
+    from .renderer import _path_cameras, check_frame_options
 
     client = _client(client)
     if renderer.volume is None:
         raise RuntimeError("no volume loaded: call load_volume() before render_path()")
-    if origin not in ("lower", "upper"):
-        raise ValueError(f"origin must be 'lower' or 'upper', got {origin!r}")
-    if np.dtype(dtype) not in (np.dtype(np.uint8), np.dtype(np.float32)):
-        raise ValueError(f"dtype must be uint8 or float32, got {np.dtype(dtype)}")
-    if background is not None:
-        _colour(background)
+    check_frame_options(origin, background, dtype)
     renderer._ensure_tf()
     _, cameras = _path_cameras(path, n_frames, endpoint)
     volume = client.scatter(renderer.volume, broadcast=True)

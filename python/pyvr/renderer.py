@@ -117,6 +117,35 @@ def _path_cameras(path, n_frames, endpoint):
     return len(cameras), cameras
 
 
+def output_image(img: np.ndarray, dt: np.dtype, premultiplied: bool, bg, origin: str) -> np.ndarray:
+    """A frame's premultiplied float RGBA (changed in place) as ``render``
+    returns it: over ``bg`` if given, uint8 or float32, straight unless
+    ``premultiplied``, rows from the bottom unless ``origin`` is "upper"."""
+    if bg is not None:
+        # Premultiplied colour over an opaque background: C + (1 - A) B.
+        img[..., :3] += (1.0 - img[..., 3:4]) * np.asarray(bg, np.float32)
+        img[..., 3] = 1.0
+    if dt == np.uint8:
+        out = _core.quantize(img, not premultiplied)
+    else:
+        out = img
+        if not premultiplied:
+            out[..., :3] = _straight(out)
+    if origin == "upper":
+        out = np.ascontiguousarray(out[::-1])
+    return out
+
+
+def check_frame_options(origin, background, dtype) -> None:
+    """The output options of a path's frames, checked before any frame."""
+    if origin not in ("lower", "upper"):
+        raise ValueError(f"origin must be 'lower' or 'upper', got {origin!r}")
+    if np.dtype(dtype) not in (np.dtype(np.uint8), np.dtype(np.float32)):
+        raise ValueError(f"dtype must be uint8 or float32, got {np.dtype(dtype)}")
+    if background is not None:
+        _colour(background)
+
+
 def _progress(progress, unit="frame", desc="render_path"):
     """A function making a progress bar of n units, or None for no bar."""
     if progress is False:
@@ -728,19 +757,7 @@ class VolumeRenderer:
             config.validate()
         n = check_count("accumulate", accumulate, high=1 << 16)
         img = self._render_float(size, config) if n == 1 else self._accumulated(size, config, n)
-        if bg is not None:
-            # Premultiplied colour over an opaque background: C + (1 - A) B.
-            img[..., :3] += (1.0 - img[..., 3:4]) * np.asarray(bg, np.float32)
-            img[..., 3] = 1.0
-        if dt == np.uint8:
-            out = _core.quantize(img, not premultiplied)
-        else:
-            out = img
-            if not premultiplied:
-                out[..., :3] = _straight(out)
-        if origin == "upper":
-            out = np.ascontiguousarray(out[::-1])
-        return out
+        return output_image(img, dt, premultiplied, bg, origin)
 
     def _accumulated(self, size, config: Optional[RenderConfig], n: int) -> np.ndarray:
         """The mean of n jittered premultiplied frames (float64 sums)."""
@@ -864,12 +881,7 @@ class VolumeRenderer:
         count, cameras = _path_cameras(path, n_frames, endpoint)
         if self.volume is None:
             raise RuntimeError("no volume loaded: call load_volume() before render_path()")
-        if origin not in ("lower", "upper"):
-            raise ValueError(f"origin must be 'lower' or 'upper', got {origin!r}")
-        if np.dtype(dtype) not in (np.dtype(np.uint8), np.dtype(np.float32)):
-            raise ValueError(f"dtype must be uint8 or float32, got {np.dtype(dtype)}")
-        if background is not None:
-            _colour(background)
+        check_frame_options(origin, background, dtype)
         make_bar = _progress(progress)
         # The checks above run now; the frames when iterated.
         return self._frames(count, cameras, make_bar, dict(origin=origin, background=background, dtype=dtype))
