@@ -241,3 +241,23 @@ def test_a_copy_on_write_memmap_renders_its_changes(reference, tmp_path):
     r.load_volume(Volume(data=mm, min_bounds=BOX[0], max_bounds=BOX[1]))
     assert np.abs(r.render(dtype=np.float32) - want).max() < TOL
     assert np.array_equal(mm, data)  # and they are still there
+
+
+def test_bricks_skipped_under_one_table_come_back_under_the_next():
+    # Which bricks can show is kept per table and value map: a change must
+    # bring the skipped ones back.
+    data = scene_data()
+    vol = Volume(data=data, min_bounds=BOX[0], max_bounds=BOX[1])
+    whole, bricked = renderer(), renderer(brick_shape=(9, 11, 7))
+    for r in (whole, bricked):
+        r.load_volume(vol)
+    narrow = OpacityTransferFunction([(0.0, 0.0), (0.9, 0.0), (0.95, 0.8), (1.0, 0.8)])
+    wide = OpacityTransferFunction.linear(0.0, 0.5)
+    cmap = ColorTransferFunction.from_colormap("viridis")
+    # The first frame reads every brick; the next ones decide from the kept ranges.
+    for otf, value_range in ((wide, None), (narrow, None), (wide, None), (wide, (0.0, 4.0)), (wide, None)):
+        for r in (whole, bricked):
+            r.set_transfer_functions(cmap, otf, value_range=value_range)
+        a, b = whole.render(dtype=np.float32, premultiplied=True), bricked.render(dtype=np.float32, premultiplied=True)
+        assert np.abs(a - b).max() < TOL, (otf is narrow, value_range, np.abs(a - b).max() / LEVEL)
+    assert a[..., 3].max() > 0.2

@@ -12,14 +12,13 @@
 //! colour and optical depth, or a projection's running value) instead of a
 //! pixel: a partial image for compositing with other bricks' (sort-last).
 
-use super::{Ends, FrameStats, GpuRenderer, Rect};
+use super::{Ends, FrameStats, GpuRenderer, Rect, STATS_BYTES};
 use crate::bricks::BrickGrid;
 use crate::config::RenderConfig;
 use crate::error::Error;
 use crate::gpu::params::{world_unit, FrameInputs, Params};
 use crate::gpu::pipeline::{marches_back_to_front, Variant};
 use crate::gpu::plan::PassPlan;
-use crate::gpu::readback::read_buffers;
 use crate::gpu::resources::{OccSource, Occupancy, RayState, VolumeGpu};
 use crate::model::Model;
 use crate::occupancy::MinMaxGrid;
@@ -69,6 +68,8 @@ struct BrickSlot {
     volume: Option<VolumeGpu>,
     grid: Option<MinMaxGrid>,
     occupancy: Occupancy,
+    /// Whether any cell can show under the source of the last frame that asked.
+    shows: Option<(OccSource, bool)>,
 }
 
 /// The bricked volume: its layout, box and bricks.
@@ -97,7 +98,7 @@ impl GpuRenderer {
         self.check_process()?;
         let grid = BrickGrid::new(dims, core, ghost)?;
         let slots = (0..grid.len())
-            .map(|_| BrickSlot { volume: None, grid: None, occupancy: Occupancy::new() })
+            .map(|_| BrickSlot { volume: None, grid: None, occupancy: Occupancy::new(), shows: None })
             .collect();
         self.volume = None;
         self.bind_group = None;
@@ -140,6 +141,7 @@ impl GpuRenderer {
         gpu.bounds = core_box(&grid, &bounds, index);
         let bytes = gpu.bytes;
         slot.grid = Some(gpu.grid.clone());
+        slot.shows = None;
         slot.volume = Some(gpu);
         slot.occupancy = Occupancy::new();
         self.pending_upload += bytes;
@@ -166,6 +168,7 @@ impl GpuRenderer {
         if let Some(b) = self.bricks.as_mut() {
             for s in &mut b.slots {
                 s.occupancy.source = None;
+                s.shows = None;
             }
         }
     }
@@ -228,14 +231,34 @@ impl GpuRenderer {
         if marches_back_to_front(cfg) {
             order.reverse();
         }
-        let rows = &self.tables.rows;
-        let needed = |slot: &BrickSlot| match (&slot.grid, cfg.model) {
-            // Never read yet: it may hold anything.
-            (None, _) => true,
-            (Some(g), Model::Isosurface) => g.occupancy_reaching(cfg.iso_value, self.value_map).contains(&1),
-            (Some(g), m) if m.skips_transparent() && self.skip_empty => g.occupancy(rows, self.value_map).contains(&1),
-            (Some(_), _) => true,
+        // Whether anything in a brick can show, kept per table (or iso value)
+        // so that a frame does not redo every brick's cells.
+        let source = match cfg.model {
+            Model::Isosurface => Some(OccSource::Below(cfg.iso_value.to_bits())),
+            m if m.skips_transparent() && self.skip_empty => Some(OccSource::Lut(self.tables.version)),
+            _ => None,
         };
+        let (rows, map) = (&self.tables.rows, self.value_map);
+        let b = self.bricks.as_mut().expect("checked above");
+        let mut needed = vec![true; b.slots.len()];
+        if let Some(source) = source {
+            for (slot, need) in b.slots.iter_mut().zip(&mut needed) {
+                // A brick never read may hold anything.
+                let Some(g) = &slot.grid else { continue };
+                *need = match slot.shows {
+                    Some((s, shows)) if s == source => shows,
+                    _ => {
+                        let shows = match source {
+                            OccSource::Below(_) => g.occupancy_reaching(cfg.iso_value, map).contains(&1),
+                            OccSource::Lut(_) => g.occupancy(rows, map).contains(&1),
+                        };
+                        slot.shows = Some((source, shows));
+                        shows
+                    }
+                };
+            }
+        }
+        let b = self.bricks.as_ref().expect("checked above");
         // Bricks outside the crop box or the view are never read.
         let (width, height) = (self.width, self.height);
         let seen = |i: usize| {
@@ -243,7 +266,7 @@ impl GpuRenderer {
             let cropped = self.clip.map_or(Some(core), |c| core.intersection(&c));
             cropped.is_some_and(|c| screen_rect(&basis, &c, width, height).is_none_or(|r| r.width > 0 && r.height > 0))
         };
-        let order: Vec<usize> = order.into_iter().filter(|&i| needed(&b.slots[i]) && seen(i)).collect();
+        let order: Vec<usize> = order.into_iter().filter(|&i| needed[i] && seen(i)).collect();
         let pixels = self.width as u64 * self.height as u64;
         if self.frame.ray_state.pixels < pixels {
             let limit = self.ctx.max_storage_bytes();
@@ -347,19 +370,10 @@ impl GpuRenderer {
         let params = Params { resolve: 1, ..frame.params };
         let one = PassPlan { passes: 1, pass_steps: 1, max_steps_needed: 0, per_pixel_state: true, planned_samples: 0 };
         self.dispatch(variant, &bind_group, params, one, Ends { first: false, last: true }, None, &mut || false)?;
-        let (truncated_needed, samples) = read_buffers(
-            &self.ctx,
-            &[&self.frame.output.readback, &self.frame.stats_readback],
-            "the image",
-            |data| {
-                out.copy_from_slice(bytemuck::cast_slice(data[0]));
-                let w: &[u32] = bytemuck::cast_slice(data[1]);
-                (w[0], w[1] as u64 | (w[2] as u64) << 32)
-            },
-        )?;
+        let (truncated_needed, samples) = self.read_image(out)?;
         self.depth_ready = frame.cfg.model == Model::Isosurface;
         self.depth_unit = world_unit(&bounds);
-        let uniforms = (frame.dispatched as u64 + 1) * std::mem::size_of::<Params>() as u64;
+        let uniforms = (frame.dispatched as u64 + 1) * std::mem::size_of::<Params>() as u64 + STATS_BYTES;
         let stats = FrameStats { truncated_needed, uploaded_bytes: 0, passes: frame.dispatched + 1, samples };
         Ok(self.finish_frame(stats, uniforms))
     }

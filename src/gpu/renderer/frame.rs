@@ -60,22 +60,23 @@ impl GpuRenderer {
         let started = std::time::Instant::now();
         let bind_group = self.bind_group.as_ref().expect("bound above").0.clone();
         self.dispatch(variant, &bind_group, params, passes, Ends { first: true, last: true }, None, stop)?;
-        let (truncated_needed, samples) = read_buffers(
-            &self.ctx,
-            &[&self.frame.output.readback, &self.frame.stats_readback],
-            "the image",
-            |data| {
-                out.copy_from_slice(bytemuck::cast_slice(data[0]));
-                let w: &[u32] = bytemuck::cast_slice(data[1]);
-                (w[0], w[1] as u64 | (w[2] as u64) << 32)
-            },
-        )?;
+        let (truncated_needed, samples) = self.read_image(out)?;
         self.depth_ready = cfg.model == Model::Isosurface;
         self.depth_unit = world_unit(&self.volume.as_ref().expect("checked by check_ready").bounds);
         self.measure_speed(passes.planned_samples, started.elapsed());
         let uniforms = passes.passes as u64 * std::mem::size_of::<Params>() as u64 + STATS_BYTES;
         let stats = FrameStats { truncated_needed, uploaded_bytes: 0, passes: passes.passes, samples };
         Ok(self.finish_frame(stats, uniforms))
+    }
+
+    /// Copies the last dispatch's image into `out`; returns the frame's
+    /// statistics (largest step count a truncated ray needed, samples).
+    pub(super) fn read_image(&self, out: &mut [f32]) -> Result<(u32, u64), Error> {
+        read_buffers(&self.ctx, &[&self.frame.output.readback, &self.frame.stats_readback], "the image", |data| {
+            out.copy_from_slice(bytemuck::cast_slice(data[0]));
+            let w: &[u32] = bytemuck::cast_slice(data[1]);
+            (w[0], w[1] as u64 | (w[2] as u64) << 32)
+        })
     }
 
     fn check_ready(&self, cfg: &RenderConfig) -> Result<(), Error> {
