@@ -79,36 +79,53 @@ fn start_integration(r: Ray) -> Integration {
     return s;
 }
 
-// A full-length segment from the pre-integration table of its end values.
-fn preintegrated_segment(r: Ray, si: u32, lo: f32, s: ptr<function, Integration>) -> Segment {
+// A pre-integrated segment from one volume fetch. A full-length segment
+// whose near boundary value is carried from the segment before reads its
+// far boundary and looks up the table of (front, back) values; one without
+// it (the ray's first, or the first after a leap or a shorter segment)
+// fetches that boundary instead and sets `again`, so that the caller marches
+// the segment once more; a shorter segment (at the chord's ends) uses the
+// midpoint rule. One fetch per call, chosen by select: llvmpipe runs both
+// sides of a branch under a lane mask whenever any lane takes each side, so
+// fetches in alternative branches would all be paid on every segment.
+fn preintegrated_segment(r: Ray, si: u32, sp: vec2<f32>, s: ptr<function, Integration>,
+                         again: ptr<function, bool>) -> Segment {
     let h = P.step_size;
-    var vf: f32;
-    var vb: f32;
-    // Branches, not select(): select evaluates (samples) both sides.
+    let full = sp.y == h;
+    // Boundary b is the front of segment b; the march comes from `near`.
+    var near = si;
+    var far = si + 1u;
+    var at_near = sp.x;
+    var at_far = sp.x + h;
     if (BACK_TO_FRONT) {
-        if ((*s).carry_at == si + 1u) {
-            vb = (*s).carry_v;
-        } else {
-            vb = value_at(tex_of(point_at(r, lo + h)));
-        }
-        vf = value_at(tex_of(point_at(r, lo)));
-        (*s).carry_at = si;
-        (*s).carry_v = vf;
-    } else {
-        if ((*s).carry_at == si) {
-            vf = (*s).carry_v;
-        } else {
-            vf = value_at(tex_of(point_at(r, lo)));
-        }
-        vb = value_at(tex_of(point_at(r, lo + h)));
-        (*s).carry_at = si + 1u;
-        (*s).carry_v = vb;
+        near = si + 1u;
+        far = si;
+        at_near = sp.x + h;
+        at_far = sp.x;
+    }
+    let carried = full && (*s).carry_at == near;
+    let primes = full && !carried;
+    let at = select(select(sp.x + 0.5 * sp.y, at_near, primes), at_far, carried);
+    let texel = volume_texel(tex_of(point_at(r, at)));
+    let v = tf_value(texel.r);
+    let held = (*s).carry_v;
+    (*s).carry_at = select(select(0xffffffffu, near, primes), far, carried);
+    (*s).carry_v = v;
+    *again = primes;
+    if (!full) {
+        return midpoint_segment(texel, sp.y);
     }
     var g: Segment;
     g.x = 0.0;
     g.add = vec3<f32>(0.0);
     g.have_texel = false;
-    if (!is_nan(vf) && !is_nan(vb)) {
+    var vf = held;
+    var vb = v;
+    if (BACK_TO_FRONT) {
+        vf = v;
+        vb = held;
+    }
+    if (carried && !is_nan(vf) && !is_nan(vb)) {
         let e = preint_lookup(vf, vb);
         g.x = e.a;
         g.add = e.rgb;
@@ -142,12 +159,11 @@ fn emitted_colour(x: f32, c: vec3<f32>) -> vec3<f32> {
 
 // The index of the first segment past the empty cell holding midpoint `mid`
 // (a thousandth of a step early, so that rounding can never skip a sample of
-// the next cell), or 0xffffffff when its cell is not empty. `tail` is how
-// much of a skipped segment beyond its midpoint must lie in the cell, in
-// steps: 0 for midpoint samples, 0.5 for pre-integrated segments, whose
-// whole length counts (all their values are then in the cell's range, which
-// the transfer function leaves at opacity 0).
-fn leap_past_empty(r: Ray, i: u32, si: u32, mid: f32, tc: vec3<f32>, tail: f32) -> u32 {
+// the next cell), or 0xffffffff when its cell is not empty. For
+// pre-integrated frames the host widens each cell's value range to the cells
+// a segment centred in it can reach, so every segment centred in an empty
+// cell is empty whole, as a midpoint sample is.
+fn leap_past_empty(r: Ray, i: u32, si: u32, mid: f32, tc: vec3<f32>) -> u32 {
     var dir = r.d;
     if (BACK_TO_FRONT) {
         dir = -r.d;
@@ -159,11 +175,11 @@ fn leap_past_empty(r: Ray, i: u32, si: u32, mid: f32, tc: vec3<f32>, tail: f32) 
     let h = P.step_size;
     if (BACK_TO_FRONT) {
         // Highest segment whose midpoint lies before the cell's near side.
-        let k = ceil((mid - exit) / h - 0.5 + tail - r.shift + 1e-3) - 1.0;
+        let k = ceil((mid - exit) / h - 0.5 - r.shift + 1e-3) - 1.0;
         let ki = i32(clamp(k, -1.0, f32(si) - 1.0));
         return u32(clamp(i32(r.n) - 1 - ki, i32(i) + 1, i32(r.end)));
     }
-    let k = ceil((mid + exit) / h - 0.5 - tail - r.shift - 1e-3);
+    let k = ceil((mid + exit) / h - 0.5 - r.shift - 1e-3);
     return u32(clamp(k, f32(i + 1u), f32(r.end)));
 }
 
@@ -174,7 +190,9 @@ fn lit(g: Segment, p: vec3<f32>, d: vec3<f32>, taken: ptr<function, u32>) -> vec
     }
     if (MODEL == MODEL_SINGLE_SCATTERING) {
         return g.add * scatter_intensity(p, d, taken);
-    } else if (SHADING != SHADING_AMBIENT_ONLY && g.have_texel) {
+    } else if (SHADING != SHADING_AMBIENT_ONLY && !PRE_INTEGRATED && g.have_texel) {
+        // (Pre-integrated frames light every segment the same way: a
+        // branch on have_texel would run both ways on llvmpipe.)
         return g.add * surface_intensity_with(p, g.texel);
     } else if (SHADING != SHADING_AMBIENT_ONLY) {
         return g.add * surface_intensity(p);
@@ -258,7 +276,6 @@ fn march_integrate(r: Ray) {
     var s = start_integration(r);
     var stopped = false;
     var taken = 0u;
-    let h = P.step_size;
     for (var i = r.begin; i < r.end; i++) {
         var si = i;
         if (BACK_TO_FRONT) {
@@ -269,21 +286,27 @@ fn march_integrate(r: Ray) {
         let p = point_at(r, mid);
         let tc = tex_of(p);
         var g: Segment;
-        // How much of a skipped segment past its midpoint must be empty.
-        var tail = 0.0;
-        if (PRE_INTEGRATED && sp.y == h) {
-            g = preintegrated_segment(r, si, sp.x, &s);
-            tail = 0.5;
+        taken += 1u;
+        var again = false;
+        if (PRE_INTEGRATED) {
+            g = preintegrated_segment(r, si, sp, &s, &again);
         } else {
             g = midpoint_segment(volume_texel(tc), sp.y);
         }
-        taken += 1u;
+        // A segment that only fetched its near value may leap too: centred
+        // in an empty cell, it is empty whatever its values.
         if (SKIP_EMPTY && !(g.x > 0.0)) {
-            let next = leap_past_empty(r, i, si, mid, tc, tail);
+            let next = leap_past_empty(r, i, si, mid, tc);
             if (next != 0xffffffffu) {
                 i = next - 1u;
                 continue;
             }
+        }
+        if (again) {
+            // The same segment again, now with its near value (u32
+            // arithmetic wraps, so i = 0 comes back to 0).
+            i -= 1u;
+            continue;
         }
         let add = lit(g, p, r.d, &taken);
         if (composite(&s, g.x, add, taken)) {

@@ -141,6 +141,12 @@ impl RenderConfig {
         if self.shadow_step_size > 0.0 { self.shadow_step_size } else { self.step_size }
     }
 
+    /// Whether frames take pre-integrated segments (only emission–absorption
+    /// has them; other models ignore the flag).
+    pub fn pre_integrates(&self) -> bool {
+        self.pre_integrated && self.model == Model::EmissionAbsorption
+    }
+
     /// Checks pyvr's rules in pyvr's order, then the ones pyvr lacked
     /// (finite values, positive reference step). Returns the warnings to emit.
     pub fn validate(&self) -> Result<Vec<String>, Error> {

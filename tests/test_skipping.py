@@ -57,13 +57,36 @@ def test_skipping_does_not_change_the_image(name):
 @pytest.mark.parametrize("name", ["sparse_one_step", "narrow_band", "sparse_normals"])
 @pytest.mark.parametrize("order", ["front_to_back", "back_to_front"])
 def test_pre_integration_skips_too_and_keeps_the_image(name, order):
-    # Pre-integrated segments leap only over cells that hold them whole.
     vol_f, otf_f = SCENES[name]
     cfg = RenderConfig.balanced().replace(pre_integrated=True, order=order)
     (plain, n_plain, _), (skipped, n_skip, r) = both(vol_f(), otf_f(), config=cfg)
     assert plain[..., 3].max() > 0.3
     assert np.abs(plain - skipped).max() < 1 / 255
     assert n_skip < 0.8 * n_plain, (n_plain, n_skip)
+
+
+@pytest.mark.parametrize("step", [0.006, 0.02, 0.04])
+@pytest.mark.parametrize("order", ["front_to_back", "back_to_front"])
+def test_pre_integrated_leaps_keep_ramps_across_a_jump(step, order):
+    # A cube of 1 in 0 with only 0.3 visible: cells holding one value are
+    # empty, yet a pre-integrated segment centred in one of them whose end
+    # lies across the cube's face ramps through 0.3. Leaps are decided at
+    # midpoints, so the cells' ranges must reach half a step out. The faces
+    # sit 1.5 voxels past the last empty 8-voxel cell, just beyond its apron:
+    # at 0.006 (half a step: 0.4 voxels of this 128^3 volume) the apron
+    # suffices, 0.02 (1.3) needs the wide ranges, 0.04 (2.6) whole cells more.
+    # Without the widening the last two differ by 54-77 levels.
+    d = np.zeros((128, 128, 128), np.float32)
+    d[41:87, 41:87, 41:87] = 1.0
+    otf = OpacityTransferFunction.peaks([0.3], opacity=1.0, eps=0.05)
+    cfg = RenderConfig(step_size=step, max_steps=400, pre_integrated=True, order=order,
+                       early_ray_termination=order == "front_to_back")
+    camera = Camera(target=np.zeros(3, np.float32), azimuth=0.3, elevation=0.2, distance=2.5)
+    (plain, n_plain, _), (skipped, n_skip, r) = both(Volume(d), otf, config=cfg, light=Light.ambient_only(1.0),
+                                                     camera=camera)
+    assert plain[..., 3].max() > 0.4
+    assert np.abs(plain - skipped).max() < 1 / 255
+    assert n_skip < 0.7 * n_plain, (n_plain, n_skip)
 
 
 def test_empty_transfer_function_takes_almost_no_samples():

@@ -60,7 +60,6 @@ impl Variant {
         Variant {
             // Which texture holds the normals only matters where they are read.
             layout: Layout { normals_in_volume: layout.normals_in_volume && shading == Shading::Normals, ..layout },
-            // Pre-integrated segments leap only over cells holding them whole.
             skip_empty: skip_empty && model.skips_cells(),
             shading,
             // The light's kind only matters when a diffuse term is computed.
@@ -71,7 +70,7 @@ impl Variant {
             model,
             back_to_front,
             jitter: cfg.jitter,
-            pre_integrated: cfg.pre_integrated && model == Model::EmissionAbsorption,
+            pre_integrated: cfg.pre_integrates(),
         }
     }
 

@@ -7,7 +7,7 @@ use super::context::GpuContext;
 use crate::error::Error;
 use super::half::{f16_to_f32, f32_to_f16};
 use crate::config::OpacityCorrection;
-use crate::occupancy::{pyramid, MinMaxGrid};
+use crate::occupancy::{pyramid, MinMaxGrid, SegmentRanges};
 use crate::preintegrate;
 use crate::scene::Bounds;
 use crate::error::try_collect;
@@ -271,8 +271,10 @@ impl Tables {
 /// What decides which occupancy cells are empty.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum OccSource {
-    /// Zero opacity under this version of the transfer function.
-    Lut(u64),
+    /// Zero opacity under this version of the transfer function, over each
+    /// cell's range or, for pre-integrated frames, over the range of the
+    /// segments centred in it (`MinMaxGrid::for_segments`).
+    Lut { version: u64, ranges: SegmentRanges },
     /// Values below this iso value (bits of the f64).
     Below(u64),
 }

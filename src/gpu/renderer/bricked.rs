@@ -21,7 +21,7 @@ use crate::gpu::pipeline::{marches_back_to_front, Variant};
 use crate::gpu::plan::PassPlan;
 use crate::gpu::resources::{OccSource, Occupancy, RayState, VolumeGpu};
 use crate::model::Model;
-use crate::occupancy::MinMaxGrid;
+use crate::occupancy::{MinMaxGrid, SegmentRanges};
 use crate::scene::{Bounds, Camera, Light, RayBasis};
 use crate::volume::{Precision, VolumeView};
 use glam::DVec3;
@@ -235,7 +235,11 @@ impl GpuRenderer {
         // so that a frame does not redo every brick's cells.
         let source = match cfg.model {
             Model::Isosurface => Some(OccSource::Below(cfg.iso_value.to_bits())),
-            m if m.skips_transparent() && self.skip_empty => Some(OccSource::Lut(self.tables.version)),
+            // (The cells' own ranges: a brick whose values, ghosts included,
+            // all have opacity 0 holds only empty segments, pre-integrated too.)
+            m if m.skips_transparent() && self.skip_empty => {
+                Some(OccSource::Lut { version: self.tables.version, ranges: SegmentRanges::Plain })
+            }
             _ => None,
         };
         let (rows, map) = (&self.tables.rows, self.value_map);
@@ -250,7 +254,7 @@ impl GpuRenderer {
                     _ => {
                         let shows = match source {
                             OccSource::Below(_) => g.occupancy_reaching(cfg.iso_value, map).contains(&1),
-                            OccSource::Lut(_) => g.occupancy(rows, map).contains(&1),
+                            OccSource::Lut { .. } => g.occupancy(rows, map).contains(&1),
                         };
                         slot.shows = Some((source, shows));
                         shows
@@ -329,11 +333,7 @@ impl GpuRenderer {
         stop: &mut dyn FnMut() -> bool,
     ) -> Result<(), Error> {
         let cfg = frame.cfg;
-        let source = match cfg.model {
-            Model::Isosurface => OccSource::Below(cfg.iso_value.to_bits()),
-            _ => OccSource::Lut(self.tables.version),
-        };
-        self.update_occupancy(source)?;
+        self.update_occupancy(self.occupancy_source(&cfg))?;
         let (variant, plan) = self.prepare(&frame.camera, &frame.light, &cfg)?;
         self.bind(variant.layout.hw_filter)?;
         let bind_group = self.bind_group.as_ref().expect("bound above").0.clone();

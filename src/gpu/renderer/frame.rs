@@ -8,7 +8,7 @@ use crate::gpu::params::{world_unit, FrameInputs, Params};
 use crate::gpu::pipeline::{Layout, Variant, WORKGROUP};
 use crate::gpu::plan::{plan, PassPlan};
 use crate::gpu::readback::read_buffers;
-use crate::gpu::resources::{readback_buffer, OccSource, PreintKey, RayState};
+use crate::gpu::resources::{readback_buffer, PreintKey, RayState};
 use crate::model::Model;
 use crate::scene::{Camera, Light, Shading};
 
@@ -43,11 +43,7 @@ impl GpuRenderer {
             return Err(Error::InvalidInput(format!("output slice has {} floats, expected {n}", out.len())));
         }
         self.check_ready(cfg)?;
-        let source = match cfg.model {
-            Model::Isosurface => OccSource::Below(cfg.iso_value.to_bits()),
-            _ => OccSource::Lut(self.tables.version),
-        };
-        self.update_occupancy(source)?;
+        self.update_occupancy(self.occupancy_source(cfg))?;
         let params = self.params(camera, light, cfg)?;
         self.depth_ready = false;
         if self.skip_empty && self.occupancy.empty_fraction == 1.0 && cfg.model.skips_transparent() {

@@ -4,7 +4,10 @@
 //! uniform block and nothing else.
 
 use super::context::{GpuContext, ProcessSlot};
+use crate::config::RenderConfig;
 use crate::error::Error;
+use crate::model::Model;
+use crate::occupancy::{segment_ranges, SegmentRanges};
 use super::params::Params;
 use super::pipeline::{Pipelines, WORKGROUP};
 use super::resources::{readback_buffer, Fixed, OccSource, Occupancy, Output, RayState, Tables, VolumeGpu};
@@ -290,7 +293,7 @@ impl GpuRenderer {
         self.bind_group = None;
         self.occupancy.source = None;
         if !self.tables.rows.is_empty() {
-            self.update_occupancy(OccSource::Lut(self.tables.version))?;
+            self.update_occupancy(OccSource::Lut { version: self.tables.version, ranges: SegmentRanges::Plain })?;
         }
         self.pending_upload += total;
         self.counters.volume_uploads += 1;
@@ -303,7 +306,7 @@ impl GpuRenderer {
         let bytes = self.tables.upload_lut(&self.ctx, lut)?;
         self.bind_group = None;
         if self.volume.is_some() {
-            self.update_occupancy(OccSource::Lut(self.tables.version))?;
+            self.update_occupancy(OccSource::Lut { version: self.tables.version, ranges: SegmentRanges::Plain })?;
         }
         self.pending_upload += bytes;
         self.counters.lut_uploads += 1;
@@ -318,7 +321,7 @@ impl GpuRenderer {
             self.occupancy.source = None;
             self.invalidate_brick_occupancy();
             if self.volume.is_some() && !self.tables.rows.is_empty() {
-                self.update_occupancy(OccSource::Lut(self.tables.version))?;
+                self.update_occupancy(OccSource::Lut { version: self.tables.version, ranges: SegmentRanges::Plain })?;
             }
         }
         Ok(())
@@ -340,12 +343,29 @@ impl GpuRenderer {
             return Ok(());
         }
         let occ = match source {
-            OccSource::Lut(_) => vol.grid.occupancy(&self.tables.rows, self.value_map),
+            OccSource::Lut { ranges, .. } => vol.grid.for_segments(ranges).occupancy(&self.tables.rows, self.value_map),
             OccSource::Below(bits) => vol.grid.occupancy_reaching(f64::from_bits(bits), self.value_map),
         };
         self.pending_upload += self.occupancy.upload(&self.ctx, &vol.grid, &occ, source)?;
         self.bind_group = None;
         Ok(())
+    }
+
+    /// What decides a frame's empty cells: the iso value, or the table over
+    /// each cell's range; for pre-integrated frames, over the range of the
+    /// segments centred in the cell (a leap is decided at midpoints).
+    pub(super) fn occupancy_source(&self, cfg: &RenderConfig) -> OccSource {
+        if cfg.model == Model::Isosurface {
+            return OccSource::Below(cfg.iso_value.to_bits());
+        }
+        let ranges = match &self.volume {
+            Some(vol) if cfg.pre_integrates() => {
+                let extent = vol.bounds.extent().to_array();
+                segment_ranges(cfg.step_size, std::array::from_fn(|a| extent[a] / vol.dims[a] as f64))
+            }
+            _ => SegmentRanges::Plain,
+        };
+        OccSource::Lut { version: self.tables.version, ranges }
     }
 
     /// Fraction of occupancy cells the current transfer function leaves empty.

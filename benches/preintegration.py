@@ -1,0 +1,160 @@
+"""What pre-integration costs and what it buys, on the six scenes of
+benches/accuracy.py (same volumes, transfer functions, lights, cameras and
+image sizes).
+
+Cost: a pre-integrated frame against a plain (midpoint) frame at the same
+step, with the preset's early termination and empty-space skipping, for
+each step in --steps. Both are rendered alternately (a warm-up each, then
+--frames of each in turn) and compared by their medians, so drift on a
+shared machine falls on both.
+
+Gain: for each scene and for max errors of --targets levels, the cheapest
+frame with and without pre-integration that stays within the target,
+over a sweep of steps without early termination (as in benches/accuracy.py),
+scored against the float64 integrator's converged image. The last column
+is how much less time pre-integration needs for the same error.
+
+Output: tables on stdout, out/preintegration_cost.json and
+out/preintegration_gain.json (docs/speed.md).
+
+Run: .venv/bin/python benches/preintegration.py [--frames N] [--quick] [--only NAME]
+"""
+
+import argparse
+import os
+import sys
+import time
+import warnings
+
+import numpy as np
+
+os.environ.setdefault("TQDM_DISABLE", "1")  # the float64 integrator's progress bars
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+
+from accuracy import SWEEP, scenes  # noqa: E402
+from _report import write_table  # noqa: E402
+from pyvr import RenderConfig, VolumeRenderer, accuracy  # noqa: E402
+from pyvr.camera import Camera  # noqa: E402
+
+STEPS = [0.005, 0.01, 0.02, 0.04]
+# The accuracy sweep, and smaller steps for midpoint frames of narrow peaks.
+GAIN_SWEEP = SWEEP + [0.00125, 0.000625]
+TARGETS = [1.0, 4.0]
+
+
+def renderer_for(scene):
+    name, vol, ctf, otf, light, px = scene
+    r = VolumeRenderer(px, px, light=light)
+    r.load_volume(vol)
+    r.set_camera(Camera.isometric_view(distance=3.0))
+    r.set_transfer_functions(ctf, otf)
+    return r
+
+
+def frame(r, cfg):
+    r.set_config(cfg)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        t = time.perf_counter()
+        img = r.render(dtype=np.float32, premultiplied=True)
+        return img, time.perf_counter() - t, r.last_frame_stats["samples"]
+
+
+def alternate(r, configs, frames):
+    """Median ms and samples of each config, rendered in turn after a warm-up each."""
+    for cfg in configs:
+        frame(r, cfg)
+    times = [[] for _ in configs]
+    samples = [0] * len(configs)
+    for _ in range(frames):
+        for k, cfg in enumerate(configs):
+            _, dt, samples[k] = frame(r, cfg)
+            times[k].append(dt)
+    return [float(np.median(t) * 1e3) for t in times], samples
+
+
+def cost(scene, steps, frames):
+    r = renderer_for(scene)
+    rows = []
+    for h in steps:
+        base = RenderConfig.balanced().replace(step_size=h, max_steps=int(3.5 / h) + 2)
+        (plain, pre), (n_plain, n_pre) = alternate(r, [base, base.replace(pre_integrated=True)], frames)
+        rows.append([scene[0], h, round(plain, 1), round(pre, 1), f"{pre / plain:.2f}x",
+                     f"{n_plain / 1e6:.2f} / {n_pre / 1e6:.2f}"])
+        print(f"  {scene[0]:<22} step {h:<6} plain {plain:8.1f} ms  pre-integrated {pre:8.1f} ms  "
+              f"{pre / plain:5.2f}x  samples {n_plain / 1e6:.2f} / {n_pre / 1e6:.2f} M", flush=True)
+    return rows
+
+
+def gain(scene, targets, frames, sweep):
+    r = renderer_for(scene)
+    t = time.perf_counter()
+    conv, info = accuracy.converged_image(r, tolerance=0.1)
+    print(f"  {scene[0]}: converged at step {info['step']:.4g} in {time.perf_counter() - t:.0f} s "
+          f"(estimated error {info['estimated_max_error']:.2f} levels)", flush=True)
+    # From the largest step down, each kind until it meets the smallest target.
+    points = {False: [], True: []}
+    for h in sorted(sweep, reverse=True):
+        cfg = RenderConfig(step_size=h, max_steps=int(3.5 / h) + 2, early_ray_termination=False)
+        for pre in (False, True):
+            if any(p[2] <= min(targets) for p in points[pre]):
+                continue
+            c = cfg.replace(pre_integrated=pre)
+            img, _, _ = frame(r, c)
+            (ms,), _ = alternate(r, [c], frames)
+            points[pre].append((h, ms, accuracy.error_metrics(img, conv)["max"]))
+    rows = []
+    for target in targets:
+        best = {}
+        for pre in (False, True):
+            ok = [p for p in points[pre] if p[2] <= target]
+            best[pre] = min(ok, key=lambda p: p[1]) if ok else None
+        cell = {pre: (f"step {b[0]:g}: {b[1]:.1f} ms, max {b[2]:.2f}" if b else "not reached (smallest step)")
+                for pre, b in best.items()}
+        ratio = f"{best[False][1] / best[True][1]:.1f}x" if best[False] and best[True] else ""
+        rows.append([scene[0], f"{target:g}", cell[False], cell[True], ratio])
+        print(f"  {scene[0]:<22} <= {target:g} levels: plain {cell[False]}; pre-integrated {cell[True]}; {ratio}",
+              flush=True)
+    return rows
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--frames", type=int, default=5)
+    ap.add_argument("--quick", action="store_true", help="smaller volumes and images (a smoke run)")
+    ap.add_argument("--only", help="run only scenes whose name contains this")
+    ap.add_argument("--no-gain", action="store_true", help="only the cost table")
+    args = ap.parse_args()
+    chosen = [sc for sc in scenes(args.quick) if not args.only or args.only in sc[0]]
+    t0 = time.perf_counter()
+    print("cost at equal step (balanced: early termination and skipping on)")
+    cost_rows = [row for sc in chosen for row in cost(sc, STEPS, args.frames)]
+    gain_rows = []
+    if not args.no_gain:
+        print("time for a max error")
+        gain_rows = [row for sc in chosen for row in gain(sc, TARGETS, max(3, args.frames // 2), GAIN_SWEEP)]
+    if args.only:
+        return
+    command = f"benches/preintegration.py --frames {args.frames}" + (" --quick" if args.quick else "")
+    device = VolumeRenderer(8, 8).device
+    write_table("preintegration_cost", command,
+                ["scene", "step", "plain ms", "pre-integrated ms", "pre-integrated / plain", "samples (M): plain / pre"],
+                cost_rows, device=device,
+                note=f"The scenes of benches/accuracy.py, balanced (early termination, empty-space skipping); plain "
+                f"and pre-integrated frames rendered alternately, median of {args.frames} each after a warm-up.")
+    if gain_rows:
+        write_table("preintegration_gain", command,
+                    ["scene", "max error (levels)", "plain: cheapest frame within it",
+                     "pre-integrated: cheapest frame within it", "plain / pre-integrated time"],
+                    gain_rows, device=device,
+                    note="Steps " + ", ".join(f"{h:g}" for h in sorted(GAIN_SWEEP, reverse=True)) + " (each kind "
+                    "down to the first that meets the smaller target) without early termination, each scored "
+                    "against the float64 integrator's converged image (max of premultiplied RGBA in 8-bit levels); "
+                    "times are medians of warm frames.")
+    print(f"total {time.perf_counter() - t0:.0f} s")
+
+
+if __name__ == "__main__":
+    main()
