@@ -7,9 +7,10 @@ Scenes: pyvr's benchmark scene (256^3 double_sphere with normals, [-1,1]^3,
 present, a torus under a TF of narrow peaks (high frequency), and an
 anisotropic non-cubic volume; all but the first at 256x256.
 
-Engines: ours at each preset, at a sweep of steps (no early termination)
-and at error-targeted configs (targets 1 and 4 levels), and for volumes with
-normals the presets and sweep again with float16 storage (pyvr-f16); the moderngl/GLSL
+Engines: ours at each preset, at a sweep of steps (no early termination),
+the same sweep pre-integrated (pyvr-preint) and at error-targeted configs
+(targets 1 and 4 levels), and for volumes with normals the presets and
+sweep again with float16 storage (pyvr-f16); the moderngl/GLSL
 reference (pyvr's semantics) at each preset; VTK's CPU
 (vtkFixedPointVolumeRayCastMapper) and GPU (vtkGPUVolumeRayCastMapper) ray
 casters from the `vtk` wheel, headless through EGL, at a sweep of sample
@@ -18,8 +19,9 @@ integrator's converged image (steps halved until Richardson's estimate of
 its error is under 0.1 level); each VTK mapper against its own finest image.
 
 Errors: premultiplied RGBA (VTK: RGB over black) in 8-bit levels, max and
-RMSE (pyvr.accuracy). Times: median of --frames (1) frames after one warm-up
-(the warm-up frame alone for configs slower than 1.5 s), readback included.
+RMSE (pyvr.accuracy). Times: for every engine and config alike, one warm-up
+frame (pipeline compilation, VTK's gradient encoding, first uploads) and
+then the median of --frames (3) frames, readback included.
 
 Output: a table per scene on stdout, JSON (--json) and a log-log plot of
 max error against time (--plot), one curve per engine.
@@ -89,14 +91,9 @@ def scenes(quick):
 
 
 def timed(fn, frames):
-    """Median frame time after one warm-up frame; a config whose warm-up
-    frame takes over 1.5 s is timed by that frame alone (its warm-up cost,
-    pipeline compilation, is under 0.1 s)."""
-    t = time.perf_counter()
+    """The median time of `frames` frames after one warm-up frame, and the
+    last image."""
     first = fn()
-    warm = time.perf_counter() - t
-    if warm > 1.5:
-        return first, warm * 1e3
     times = []
     for _ in range(frames):
         t = time.perf_counter()
@@ -126,16 +123,17 @@ def run_scene(scene, frames, use_reference):
         res["points"].append({"engine": engine, "kind": kind, "label": label, "step": cfg.step_size, "ms": ms,
                               "samples_per_s": samples / ms * 1e3, **accuracy.error_metrics(img, conv)})
 
-    def sweep(engine="pyvr"):
+    def sweep(engine="pyvr", **fields):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             for h in SWEEP:
-                ours(f"step {h}", RenderConfig(step_size=h, max_steps=int(3.5 / h) + 2, early_ray_termination=False),
-                     "sweep", engine)
+                cfg = RenderConfig(step_size=h, max_steps=int(3.5 / h) + 2, early_ray_termination=False)
+                ours(f"step {h}", cfg.replace(**fields), "sweep", engine)
 
     for p in PRESETS:
         ours(p, getattr(RenderConfig, p)(), "preset")
     sweep()
+    sweep("pyvr-preint", pre_integrated=True)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         r.set_config(RenderConfig.balanced())
@@ -225,9 +223,10 @@ def report(res):
 
 
 def short(p):
-    """A point's config and time: 'step 0.08, 258' (float16 storage marked)."""
-    storage = " (float16)" if p["engine"] == "pyvr-f16" else ""
-    return f"{p['label']}{storage}, {p['ms']:.0f}"
+    """A point's config and time: 'step 0.08, 258' (float16 storage and
+    pre-integration marked)."""
+    mark = {"pyvr-f16": " (float16)", "pyvr-preint": " (pre-integrated)"}.get(p["engine"], "")
+    return f"{p['label']}{mark}, {p['ms']:.0f}"
 
 
 def write_tables(results, command, device):
@@ -258,7 +257,8 @@ def write_tables(results, command, device):
                     row.append(f"{short(best)}, {r['ms'] / best['ms']:.1f}x" if best else "")
                 f16.append(row)
     errors = ("Errors: max of premultiplied RGBA in 8-bit levels against the float64 integrator's converged "
-              "image (VTK: against its own finest image).")
+              "image (VTK: against its own finest image). Times: for every engine alike, the median of --frames "
+              "frames after one warm-up frame.")
     write_table("accuracy_presets", command,
                 ["scene", "preset", "pyvr ms", "max err", "moderngl ms", "pyvr at <= its error: config, ms, speed-up"],
                 presets, device=device, note=errors + " Per preset ours and the moderngl reference render the same "
@@ -288,7 +288,8 @@ def plot(results, path):
     cols = 3
     rows = (len(results) + cols - 1) // cols
     fig, axes = plt.subplots(rows, cols, figsize=(5 * cols, 4 * rows), squeeze=False)
-    style = {"pyvr": "o-", "pyvr-f16": "o-.", "moderngl": "s--", "vtk-cpu": "^:", "vtk-gpu": "v:"}
+    style = {"pyvr": "o-", "pyvr-f16": "o-.", "pyvr-preint": "D-", "moderngl": "s--", "vtk-cpu": "^:",
+             "vtk-gpu": "v:"}
     for ax, res in zip(axes.ravel(), results):
         for engine, fmt in style.items():
             for kind in ("sweep", "preset", "target"):
@@ -310,7 +311,7 @@ def plot(results, path):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--frames", type=int, default=1)
+    ap.add_argument("--frames", type=int, default=3)
     ap.add_argument("--quick", action="store_true", help="smaller volumes and images (a smoke run)")
     ap.add_argument("--no-vtk", action="store_true")
     ap.add_argument("--no-reference", action="store_true")
