@@ -92,15 +92,20 @@ def run(volume, size, frames, keep_images=False):
 def table(title, rows, name, args):
     print(f"\n{title}")
     base = rows[0][1]
-    print(f"{'model':<22} {'ms/frame':>9} {'vs EA':>6} {'samples/px':>11} {'passes':>6}")
+    # Whole-frame time over samples (setup and readback included).
+    ns = {label: ms * 1e6 / max(spp * args.size**2, 1.0) for label, ms, spp, _ in rows}
+    print(f"{'model':<22} {'ms/frame':>9} {'vs EA':>6} {'samples/px':>11} {'ns/sample':>10} {'passes':>6}")
     for label, ms, spp, passes in rows:
-        print(f"{label:<22} {ms:9.1f} {ms / base:6.2f} {spp:11.1f} {passes:6d}")
+        print(f"{label:<22} {ms:9.1f} {ms / base:6.2f} {spp:11.1f} {ns[label]:10.1f} {passes:6d}")
     write_table(name, f"benches/models.py --frames {args.frames}",
-                ["model", "ms per frame", "vs emission_absorption", "samples per pixel", "passes"],
-                [[label, f"{ms:.1f}", f"{ms / base:.2f}", f"{spp:.1f}", passes] for label, ms, spp, passes in rows],
+                ["model", "ms per frame", "vs emission_absorption", "samples per pixel", "ns per sample", "passes"],
+                [[label, f"{ms:.1f}", f"{ms / base:.2f}", f"{spp:.1f}", f"{ns[label]:.1f}", passes]
+                 for label, ms, spp, passes in rows],
                 device=VolumeRenderer(8, 8).device,
                 note=f"{title}, {args.size}x{args.size}, balanced, isometric camera at distance 3; median of "
-                f"{args.frames} frames after a warm-up.")
+                f"{args.frames} frames after a warm-up. ns per sample: frame time over samples taken (shadow "
+                "samples included); mip's (one fetch and a max per sample) is what a sample costs this device "
+                "at the least.")
 
 
 def main():
