@@ -106,7 +106,7 @@ def main():
         ("uint16", (base * 65535).astype(np.uint16), None),
         ("float32", base, None),
         ("float64 (stored as float32)", base.astype(np.float64), None),
-        ("float32 + normals (RGBA8 snorm)", base, compute_normal_volume(base)),
+        ("float32 + normals", base, compute_normal_volume(base)),
     ]:
         r = VolumeRenderer(8, 8)
         r.load_volume(Volume(data, normals))

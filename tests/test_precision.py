@@ -7,6 +7,7 @@ import pytest
 
 from scenes import make_renderer
 from pyvr import VolumeRenderer
+from pyvr.renderer import device_limits
 from pyvr.camera import Camera
 from pyvr.datasets import compute_normal_volume, create_sample_volume
 from pyvr.lighting import Light
@@ -30,11 +31,21 @@ def lit_scene(n=48):
     return d, compute_normal_volume(d)
 
 
+SEPARATE = ("r32float + rgba8snorm normals", 8)
+PACKED = ("rgba32float (value, normal)", 16)
+
+
 def test_storage_and_bytes_per_voxel():
     d, nrm = lit_scene(16)
+    holed = d.copy()
+    holed[0, 0, 0] = np.nan
+    # Value and normal share a float32 texel where the device filters them.
+    packed = PACKED if device_limits()["float32_filterable"] else SEPARATE
     cases = [
         (Volume(d), "float32", "r32float", 4),
-        (Volume(d, nrm), "float32", "r32float + rgba8snorm normals", 8),
+        (Volume(d, nrm), "float32", *packed),
+        # NaN is interpolated in the shader, which reads values alone.
+        (Volume(holed, nrm), "float32", *SEPARATE),
         (Volume(d), "float16", "r16float", 2),
         (Volume(d, nrm), "float16", "rgba16float (value, normal)", 8),
         # Integer data is stored exactly whatever the precision.
@@ -43,6 +54,24 @@ def test_storage_and_bytes_per_voxel():
     for vol, precision, storage, bpv in cases:
         c = renderer(vol, precision).counters()
         assert (c["volume_storage"], c["volume_bytes"]) == (storage, bpv * d.size), (precision, storage)
+
+
+def test_packed_normals_light_as_separate_ones():
+    # The same lit scene with value and normal in one float32 texel, and
+    # (a NaN in a corner, where the table is transparent anyway, forces it)
+    # with the normals in a texture of their own, to 1/127 per component.
+    if not device_limits()["float32_filterable"]:
+        pytest.skip("this device stores float32 normals apart only")
+    d, nrm = lit_scene()
+    holed = d.copy()
+    holed[0, 0, 0] = np.nan
+    light = Light.default()
+    a, b = renderer(Volume(d, nrm), "float32", light), renderer(Volume(holed, nrm), "float32", light)
+    assert (a.counters()["volume_storage"], b.counters()["volume_storage"]) == (PACKED[0], SEPARATE[0])
+    ia, ib = image(a), image(b)
+    assert ia[..., 3].max() > 0.5
+    # The normals' rounding (1/127) moves the diffuse term by under 0.4%.
+    assert np.abs(ia - ib).max() * 255 < 1.0
 
 
 @pytest.mark.parametrize("lit", [False, True])

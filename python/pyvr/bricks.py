@@ -186,12 +186,9 @@ class BrickedVolume:
         self.resident = False
 
     def texel_bytes(self) -> int:
-        from .renderer import _storage_dtype
+        from .renderer import device_texel_bytes
 
-        t = _storage_dtype(self.data.dtype).itemsize
-        if self.precision == "float16" and t == 4:
-            return 8 if self.normals is not None else 2
-        return t + (4 if self.normals is not None else 0)
+        return device_texel_bytes(self.data, self.normals is not None, self.precision)[1]
 
     def device_bytes(self) -> int:
         return sum(int(np.prod([hi - lo for lo, hi in r])) for r in self.ranges) * self.texel_bytes()

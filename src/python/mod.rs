@@ -27,6 +27,7 @@ fn device_limits(py: Python<'_>) -> PyResult<Bound<'_, pyo3::types::PyDict>> {
     d.set_item("max_storage_buffer_binding_size", l.max_storage_buffer_binding_size)?;
     d.set_item("max_buffer_size", l.max_buffer_size)?;
     d.set_item("max_image_pixels", ctx.max_storage_bytes() / 16)?;
+    d.set_item("float32_filterable", ctx.features.contains(wgpu::Features::FLOAT32_FILTERABLE))?;
     Ok(d)
 }
 
