@@ -98,13 +98,7 @@ impl MinMaxGrid {
 
     /// The axis-1 and axis-0 sweeps of `build_from` over its (s0, s1, g2)
     /// ranges.
-    fn reduce_rows(
-        dims: [usize; 3],
-        g: [usize; 3],
-        lo2: Vec<f32>,
-        hi2: Vec<f32>,
-        apron: usize,
-    ) -> (Vec<f32>, Vec<f32>) {
+    fn reduce_rows(dims: [usize; 3], g: [usize; 3], lo2: Vec<f32>, hi2: Vec<f32>, apron: usize) -> (Vec<f32>, Vec<f32>) {
         let [s0, s1, _] = dims;
         let window = |c: usize, n: usize| (c * BLOCK).saturating_sub(apron)..((c + 1) * BLOCK + apron).min(n);
         // Along axis 1: (s0, g1, g2).

@@ -99,3 +99,17 @@ def test_config_for_error_meets_its_target_at_a_fair_cost(name, target):
         best = h
     assert best is not None
     assert best / cfg.step_size <= 2.0, (name, best, cfg.step_size)
+
+
+@pytest.mark.parametrize("name", list(SCENES))
+def test_config_for_error_pre_integrates_where_it_pays(name):
+    # Pre-integration is chosen only where the step it allows is longer by
+    # more than its cost per sample: for the narrow peaks (their features
+    # are narrow against the data's change over a step), not for the smooth
+    # ramps; the choice still meets the target (the test above).
+    vol, otf = SCENES[name]()
+    r = make(vol, otf)
+    cfg, pred = accuracy.config_for_error(r, 4.0)
+    assert cfg.pre_integrated == (pred["pre_integrated_step"] > accuracy.PREINTEGRATED_COST * pred["midpoint_step"])
+    assert cfg.step_size == (pred["pre_integrated_step"] if cfg.pre_integrated else pred["midpoint_step"])
+    assert cfg.pre_integrated == (name == "narrow_peaks"), (name, pred["midpoint_step"], pred["pre_integrated_step"])
