@@ -201,11 +201,12 @@ def _storage_dtype(dtype) -> np.dtype:
 
 
 def device_texel_bytes(data, has_normals: bool, precision: str) -> Tuple[int, int]:
-    """Bytes per voxel the engine stores for ``data``: (its largest single
-    texture's, all its textures' at most). Float values with normals share
-    one float texel (value, normal): 8 bytes at float16, 16 at float32 where
-    the device filters float32 textures and the values are finite, else the
-    normals are a texture of their own (4 bytes)."""
+    """Bytes per voxel the engine stores for ``data``: (the largest texture
+    it cannot do without, all its textures at most). Float values with
+    normals share one float texel (value, normal): 8 bytes at float16, 16 at
+    float32 where the device filters float32 textures, the values are finite
+    and the texels fit one upload; else the normals are a texture of their
+    own (4 bytes), beside 4-byte values."""
     t = 4 if isinstance(data, np.ma.MaskedArray) else _storage_dtype(data.dtype).itemsize
     if precision == "float16" and t == 4:
         t = 8 if has_normals else 2
@@ -438,10 +439,10 @@ class VolumeRenderer:
           2**-11; values in [0, 1] move by at most 2**-12, a sixteenth of a
           256-entry table's spacing). 2 bytes per voxel, or 8 with normals
           in the value's texel: the lit benchmark scene renders 1.2x faster
-          than at float32. Values must be finite and within +-65504. The rounding is
-          the same in every voxel of a smooth region, so along long dense
-          rays it can add up: measured up to 2.1 levels against the exact
-          data's image (docs/numerics.md).
+          than at float32. Values must be finite and within +-65504. The
+          rounding is the same in every voxel of a smooth region, so along
+          long dense rays it can add up: measured up to 2.1 levels against
+          the exact data's image (docs/numerics.md).
 
         ``counters()["volume_storage"]`` names the stored format.
         """
