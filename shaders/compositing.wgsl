@@ -46,10 +46,11 @@ struct Integration {
     trans: f32,
     // Partial sums folded so far (samples taken >> BLOCK_SHIFT).
     blocks: u32,
-    // The value at segment boundary `carry_at` (pre-integration shares each
-    // boundary between two segments).
+    // The value and the light at segment boundary `carry_at`
+    // (pre-integration shares each boundary between two segments).
     carry_at: u32,
     carry_v: f32,
+    carry_light: f32,
 };
 
 // One segment before lighting: its optical depth x, the colour it emits,
@@ -76,18 +77,23 @@ fn start_integration(r: Ray) -> Integration {
     s.blocks = 0u;
     s.carry_at = 0xffffffffu;
     s.carry_v = 0.0;
+    s.carry_light = 0.0;
     return s;
 }
 
-// A pre-integrated segment from one volume fetch. A full-length segment
-// whose near boundary value is carried from the segment before reads its
-// far boundary and looks up the table of (front, back) values; one without
-// it (the ray's first, or the first after a leap or a shorter segment)
-// fetches that boundary instead and sets `again`, so that the caller marches
-// the segment once more; a shorter segment (at the chord's ends) uses the
-// midpoint rule. One fetch per call, chosen by select: llvmpipe runs both
-// sides of a branch under a lane mask whenever any lane takes each side, so
-// fetches in alternative branches would all be paid on every segment.
+// A pre-integrated segment from one volume fetch, lit. A full-length
+// segment whose near boundary value is carried from the segment before
+// reads its far boundary and looks up the table of (front, back) values; one
+// without it (the ray's first, or the first after a leap or a shorter
+// segment) fetches that boundary instead and sets `again`, so that the
+// caller marches the segment once more; a shorter segment (at the chord's
+// ends) uses the midpoint rule. One fetch per call, chosen by select:
+// llvmpipe runs both sides of a branch under a lane mask whenever any lane
+// takes each side, so fetches in alternative branches would all be paid on
+// every segment. A full segment's light is the mean of the light at its two
+// ends (as in the f64 integrator), each computed once from the texel
+// fetched there: normals packed with the values then cost no fetch of
+// their own.
 fn preintegrated_segment(r: Ray, si: u32, sp: vec2<f32>, s: ptr<function, Integration>,
                          again: ptr<function, bool>) -> Segment {
     let h = P.step_size;
@@ -106,14 +112,20 @@ fn preintegrated_segment(r: Ray, si: u32, sp: vec2<f32>, s: ptr<function, Integr
     let carried = full && (*s).carry_at == near;
     let primes = full && !carried;
     let at = select(select(sp.x + 0.5 * sp.y, at_near, primes), at_far, carried);
-    let texel = volume_texel(tex_of(point_at(r, at)));
+    let here = point_at(r, at);
+    let texel = volume_texel(tex_of(here));
     let v = tf_value(texel.r);
+    let light = surface_intensity_with(here, texel);
     let held = (*s).carry_v;
+    let held_light = (*s).carry_light;
     (*s).carry_at = select(select(0xffffffffu, near, primes), far, carried);
     (*s).carry_v = v;
+    (*s).carry_light = light;
     *again = primes;
     if (!full) {
-        return midpoint_segment(texel, sp.y);
+        var m = midpoint_segment(texel, sp.y);
+        m.add *= light;
+        return m;
     }
     var g: Segment;
     g.x = 0.0;
@@ -128,7 +140,7 @@ fn preintegrated_segment(r: Ray, si: u32, sp: vec2<f32>, s: ptr<function, Integr
     if (carried && !is_nan(vf) && !is_nan(vb)) {
         let e = preint_lookup(vf, vb);
         g.x = e.a;
-        g.add = e.rgb;
+        g.add = e.rgb * (0.5 * (held_light + light));
     }
     return g;
 }
@@ -183,16 +195,15 @@ fn leap_past_empty(r: Ray, i: u32, si: u32, mid: f32, tc: vec3<f32>) -> u32 {
     return u32(clamp(k, f32(i + 1u), f32(r.end)));
 }
 
-// The emitted colour scaled by the light reaching the segment's midpoint p.
+// The emitted colour scaled by the light reaching the segment's midpoint p
+// (pre-integrated segments come lit).
 fn lit(g: Segment, p: vec3<f32>, d: vec3<f32>, taken: ptr<function, u32>) -> vec3<f32> {
-    if (MODEL == MODEL_ABSORPTION || !(g.x > 0.0)) {
+    if (MODEL == MODEL_ABSORPTION || PRE_INTEGRATED || !(g.x > 0.0)) {
         return g.add;
     }
     if (MODEL == MODEL_SINGLE_SCATTERING) {
         return g.add * scatter_intensity(p, d, taken);
-    } else if (SHADING != SHADING_AMBIENT_ONLY && !PRE_INTEGRATED && g.have_texel) {
-        // (Pre-integrated frames light every segment the same way: a
-        // branch on have_texel would run both ways on llvmpipe.)
+    } else if (SHADING != SHADING_AMBIENT_ONLY && g.have_texel) {
         return g.add * surface_intensity_with(p, g.texel);
     } else if (SHADING != SHADING_AMBIENT_ONLY) {
         return g.add * surface_intensity(p);

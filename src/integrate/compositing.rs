@@ -129,7 +129,9 @@ fn segment(frame: &Frame, shading: Shading, ray: &Ray, i: u64, out: &mut Vec<(f6
         let k = preintegrate::substeps_for(frame.lut.len(), vf, vb) * 8;
         let r = preintegrate::segment(frame.lut, vf, vb, seg / cfg.reference_step_size, cfg.opacity_correction, k);
         if r[3] > 0.0 {
-            let light = intensity(frame, shading, ray.at(lo + 0.5 * seg), ray.dir);
+            // The mean of the light at the two ends, where the values are read.
+            let light = 0.5 * (intensity(frame, shading, ray.at(lo), ray.dir)
+                + intensity(frame, shading, ray.at(lo + seg), ray.dir));
             out.push((r[3], [r[0] * light, r[1] * light, r[2] * light]));
         }
         return;
