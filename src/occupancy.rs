@@ -138,9 +138,13 @@ impl MinMaxGrid {
     pub fn for_segments(&self, ranges: SegmentRanges) -> Cow<'_, MinMaxGrid> {
         match ranges {
             SegmentRanges::Plain => Cow::Borrowed(self),
-            SegmentRanges::Wide(reach) if self.wide_min.is_empty() => Cow::Owned(self.widened(reach.map(|r| r + 1))),
             SegmentRanges::Wide(reach) => {
-                let wide = MinMaxGrid { min: self.wide_min.clone(), max: self.wide_max.clone(), ..self.clone() };
+                let (min, max, reach) = if self.wide_min.is_empty() {
+                    (self.min.clone(), self.max.clone(), reach.map(|r| r + 1))
+                } else {
+                    (self.wide_min.clone(), self.wide_max.clone(), reach)
+                };
+                let wide = MinMaxGrid { dims: self.dims, min, max, wide_min: Vec::new(), wide_max: Vec::new() };
                 Cow::Owned(wide.widened(reach))
             }
         }
@@ -148,9 +152,9 @@ impl MinMaxGrid {
 
     /// Each cell's range widened to the hull of its neighbours' within
     /// `reach` cells along each axis.
-    fn widened(&self, reach: [usize; 3]) -> MinMaxGrid {
-        let mut out = self.clone();
-        let d = self.dims;
+    fn widened(self, reach: [usize; 3]) -> MinMaxGrid {
+        let mut out = self;
+        let d = out.dims;
         for (axis, &r) in reach.iter().enumerate() {
             if r == 0 {
                 continue;
@@ -352,7 +356,7 @@ mod tests {
         let max: Vec<f32> = min.iter().map(|v| v + ((*v as usize * 7) % 5) as f32).collect();
         let g = MinMaxGrid { dims, min, max, wide_min: Vec::new(), wide_max: Vec::new() };
         for reach in [[0, 0, 0], [1, 1, 1], [0, 2, 1], [3, 0, 7]] {
-            let w = g.widened(reach);
+            let w = g.clone().widened(reach);
             let near = |c: usize, k: usize, a: usize| c.abs_diff(k) <= reach[a];
             for a in 0..3 {
                 for b in 0..4 {

@@ -138,16 +138,20 @@ impl VolumeGpu {
         };
         let (format, data) = match vol.normals {
             None => (wgpu::TextureFormat::R16Float, halves),
-            Some(n) => {
-                let mut texels = try_collect(halves.len() * 4, "packing values with normals", std::iter::empty())?;
-                for (&h, c) in halves.iter().zip(n.chunks_exact(3)) {
-                    let u = unit_direction([c[0], c[1], c[2]]);
-                    texels.extend_from_slice(&[h, f32_to_f16(u[0]), f32_to_f16(u[1]), f32_to_f16(u[2])]);
-                }
-                (wgpu::TextureFormat::Rgba16Float, texels)
-            }
+            Some(n) => (wgpu::TextureFormat::Rgba16Float, with_normals(&halves, n, f32_to_f16)?),
         };
-        let bytes: &[u8] = bytemuck::cast_slice(&data);
+        Self::whole_texels(ctx, vol, format, bytemuck::cast_slice(&data), grid)
+    }
+
+    /// A volume whose texels hold everything a sample reads (values, and
+    /// normals when given), filtered by the sampler.
+    fn whole_texels(
+        ctx: &GpuContext,
+        vol: &VolumeView,
+        format: wgpu::TextureFormat,
+        bytes: &[u8],
+        grid: MinMaxGrid,
+    ) -> Result<VolumeGpu, Error> {
         let view = ctx.texture_with_data("uploading the volume", "volume", extent_of(vol.dims), D3, format, 1, bytes)?;
         Ok(VolumeGpu {
             filterable: true,
@@ -182,25 +186,9 @@ impl VolumeGpu {
 
     /// Float32 values with their normals' directions, one Rgba32Float texel each.
     fn upload_packed_f32(ctx: &GpuContext, vol: &VolumeView, values: &[f32], normals: &[f32]) -> Result<VolumeGpu, Error> {
-        let mut texels: Vec<f32> = try_collect(values.len() * 4, "packing values with normals", std::iter::empty())?;
-        for (&v, c) in values.iter().zip(normals.chunks_exact(3)) {
-            let u = unit_direction([c[0], c[1], c[2]]);
-            texels.extend_from_slice(&[v, u[0], u[1], u[2]]);
-        }
+        let texels = with_normals(values, normals, |c| c)?;
         let format = wgpu::TextureFormat::Rgba32Float;
-        let bytes: &[u8] = bytemuck::cast_slice(&texels);
-        let view = ctx.texture_with_data("uploading the volume", "volume", extent_of(vol.dims), D3, format, 1, bytes)?;
-        Ok(VolumeGpu {
-            filterable: true,
-            view,
-            normals: None,
-            normals_in_volume: true,
-            format,
-            dims: vol.dims,
-            bounds: vol.bounds,
-            bytes: bytes.len() as u64,
-            grid: MinMaxGrid::build(vol),
-        })
+        Self::whole_texels(ctx, vol, format, bytemuck::cast_slice(&texels), MinMaxGrid::build(vol))
     }
 
     /// The stored format and where the normals are, for reports.
@@ -212,6 +200,17 @@ impl VolumeGpu {
             (false, false) => texel,
         }
     }
+}
+
+/// (value, normal direction) texels: each value followed by its normal's
+/// unit direction, converted by `component`.
+fn with_normals<T: Copy>(values: &[T], normals: &[f32], component: impl Fn(f32) -> T) -> Result<Vec<T>, Error> {
+    let mut texels = try_collect(values.len() * 4, "packing values with normals", std::iter::empty())?;
+    for (&v, c) in values.iter().zip(normals.chunks_exact(3)) {
+        let u = unit_direction([c[0], c[1], c[2]]);
+        texels.extend_from_slice(&[v, component(u[0]), component(u[1]), component(u[2])]);
+    }
+    Ok(texels)
 }
 
 /// numpy's last axis is the fastest: it becomes the texture's x.

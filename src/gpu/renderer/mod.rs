@@ -293,7 +293,7 @@ impl GpuRenderer {
         self.bind_group = None;
         self.occupancy.source = None;
         if !self.tables.rows.is_empty() {
-            self.update_occupancy(OccSource::Lut { version: self.tables.version, ranges: SegmentRanges::Plain })?;
+            self.update_occupancy(self.table_source(None))?;
         }
         self.pending_upload += total;
         self.counters.volume_uploads += 1;
@@ -306,7 +306,7 @@ impl GpuRenderer {
         let bytes = self.tables.upload_lut(&self.ctx, lut)?;
         self.bind_group = None;
         if self.volume.is_some() {
-            self.update_occupancy(OccSource::Lut { version: self.tables.version, ranges: SegmentRanges::Plain })?;
+            self.update_occupancy(self.table_source(self.occupancy.source))?;
         }
         self.pending_upload += bytes;
         self.counters.lut_uploads += 1;
@@ -318,10 +318,10 @@ impl GpuRenderer {
     pub fn set_value_map(&mut self, map: ValueMap) -> Result<(), Error> {
         if map != self.value_map {
             self.value_map = map;
-            self.occupancy.source = None;
+            let last = self.occupancy.source.take();
             self.invalidate_brick_occupancy();
             if self.volume.is_some() && !self.tables.rows.is_empty() {
-                self.update_occupancy(OccSource::Lut { version: self.tables.version, ranges: SegmentRanges::Plain })?;
+                self.update_occupancy(self.table_source(last))?;
             }
         }
         Ok(())
@@ -349,6 +349,18 @@ impl GpuRenderer {
         self.pending_upload += self.occupancy.upload(&self.ctx, &vol.grid, &occ, source)?;
         self.bind_group = None;
         Ok(())
+    }
+
+    /// The table's cells, built when the table, value map or volume changes,
+    /// over the segment ranges of `last` (the grid the last frame used), so
+    /// that a pre-integrated session builds one grid per table change, not
+    /// two; a new volume starts from the cells' own ranges.
+    fn table_source(&self, last: Option<OccSource>) -> OccSource {
+        let ranges = match last {
+            Some(OccSource::Lut { ranges, .. }) => ranges,
+            _ => SegmentRanges::Plain,
+        };
+        OccSource::Lut { version: self.tables.version, ranges }
     }
 
     /// What decides a frame's empty cells: the iso value, or the table over
