@@ -102,6 +102,34 @@ def test_config_for_error_meets_its_target_at_a_fair_cost(name, target):
 
 
 @pytest.mark.parametrize("name", list(SCENES))
+def test_config_for_error_meets_its_target_from_a_small_pilot(name):
+    # A 128x128 frame chosen from the default pilot (64 across: a quarter of
+    # the rays) with its margin, in a bounded number of pilot renders that
+    # share their pixels' volume features with later choices.
+    vol, otf = SCENES[name]()
+    r = make(vol, otf, w=128, h=128)
+    conv, _ = accuracy.converged_image(r, tolerance=0.05)
+    cfg, pred = accuracy.config_for_error(r, 2.0)
+    assert pred["pilot_size"] == (64, 64)
+    assert pred["pilot_renders"] <= 16, pred
+    assert cfg.jitter is False
+    r.set_config(cfg)
+    got = accuracy.error_metrics(r.render(dtype=np.float32, premultiplied=True), conv)
+    assert got["max"] <= 2.0, (name, cfg, pred, got)
+    assert r._data_features is not None
+    r.load_volume(vol)
+    assert r._data_features is None
+
+
+def test_config_for_error_rejects_a_bad_pilot():
+    vol, otf = SCENES["shepp_logan"]()
+    r = make(vol, otf)
+    for bad in (4, 12.5, "64"):
+        with pytest.raises(ValueError, match="pilot must be an integer"):
+            accuracy.config_for_error(r, 1.0, pilot=bad)
+
+
+@pytest.mark.parametrize("name", list(SCENES))
 def test_config_for_error_pre_integrates_where_it_pays(name):
     # Pre-integration is chosen only where the step it allows is longer by
     # more than its cost per sample: for the narrow peaks (their features

@@ -481,6 +481,8 @@ class VolumeRenderer:
         self._precision = precision
         self.volume = volume
         self._bounds = (_vec(volume.min_bounds), _vec(volume.max_bounds))
+        # What pyvr.accuracy measures of the data (its gradient), once per load.
+        self._data_features = None
         self._update_value_map()
 
     def _needs_bricks(self, volume: Volume, precision: str) -> bool:
