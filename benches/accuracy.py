@@ -164,9 +164,9 @@ def run_scene(scene, frames, use_reference):
             # The fastest frame of this run (sweeps of both kinds, probes)
             # that meets the target.
             ok = [p for p in res["points"] if p["engine"] in ("pyvr", "pyvr-preint") and p["max"] <= target]
-            fastest = min(ok, key=lambda p: p["ms"])
-            chosen["fastest_meeting"] = short(fastest)
-            chosen["time_vs_fastest"] = chosen["ms"] / fastest["ms"]
+            fastest = min(ok, key=lambda p: p["ms"], default=None)
+            chosen["fastest_meeting"] = short(fastest) if fastest else "none"
+            chosen["time_vs_fastest"] = chosen["ms"] / fastest["ms"] if fastest else float("nan")
 
     if vol.normals is not None and vol.data.dtype == np.float32:
         # The same sweep with the values (and normals) in one float16 texel.
