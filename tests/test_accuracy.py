@@ -104,8 +104,8 @@ def test_config_for_error_meets_its_target_at_a_fair_cost(name, target):
 @pytest.mark.parametrize("name", list(SCENES))
 def test_config_for_error_meets_its_target_from_a_small_pilot(name):
     # A 128x128 frame chosen from the default pilot (64 across: a quarter of
-    # the rays) with its margin, in a bounded number of pilot renders that
-    # share their pixels' volume features with later choices.
+    # the rays) with its margin, in a bounded number of pilot renders; the
+    # data's gradient is kept for later choices until the next load_volume.
     vol, otf = SCENES[name]()
     r = make(vol, otf, w=128, h=128)
     conv, _ = accuracy.converged_image(r, tolerance=0.05)
