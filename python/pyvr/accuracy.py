@@ -240,7 +240,9 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[in
     scale = min(1.0, pilot / max(w0, h0))
     # Termination takes 0.2 of the target; the step gets the rest but a
     # margin for pixels a coarser pilot does not sample: a frame's maximum
-    # was up to 2.2x a quarter-side pilot's on the accuracy scenes.
+    # was 0.8-2.3x a quarter-side pilot's on five of the accuracy scenes
+    # (benches/pilot_margin.py); thin features the pilot's rays miss (the
+    # anisotropic scene: 1.5-12.7x) are not bounded by it.
     budget = (0.75 if scale == 1.0 else 0.4) * max_error_levels
     size = (max(1, round(w0 * scale)), max(1, round(h0 * scale)))
     longest = feats["longest_chord"]
