@@ -44,7 +44,9 @@ struct Params {
     // range in data units; identity by default).
     value_scale: f32,
     value_offset: f32,
-    value_pad: vec2<f32>,
+    // Points per unit length of unbiased frames' Poisson process.
+    track_rate: f32,
+    value_pad: f32,
     // The box rays march in (a crop, or [0, extent]), same frame as positions.
     clip_lo: vec4<f32>,
     clip_hi: vec4<f32>,

@@ -11,6 +11,12 @@ fn one_minus_exp_neg(x: f32) -> f32 {
     return select(1.0 - exp(-x), series, x < 1e-3);
 }
 
+// -ln(1 - a) for a in [0, 1), with a series below 1e-3 where 1 - a rounds.
+fn neg_log_one_minus(a: f32) -> f32 {
+    let series = a * (1.0 + a * (0.5 + a * (1.0 / 3.0)));
+    return select(-log(1.0 - a), series, a < 1e-3);
+}
+
 // Extinction per reference step for a transfer-function opacity `a`:
 // exponential form sigma = a; power form sigma = -ln(1 - a) (inf at a = 1).
 fn extinction(a: f32) -> f32 {
@@ -19,8 +25,7 @@ fn extinction(a: f32) -> f32 {
             // Opaque; a huge finite value, since shaders need not honour inf.
             return 1.0e30;
         }
-        let series = a * (1.0 + a * (0.5 + a * (1.0 / 3.0)));
-        return select(-log(1.0 - a), series, a < 1e-3);
+        return neg_log_one_minus(a);
     }
     return a;
 }
@@ -284,6 +289,10 @@ fn end_integration(r: Ray, s: ptr<function, Integration>, stopped: bool, taken: 
 // Emission–absorption, absorption, emission and single scattering: the
 // optical depth is summed along the ray (tau), transmittance is exp(-tau).
 fn march_integrate(r: Ray) {
+    if (UNBIASED) {
+        march_tracking(r);
+        return;
+    }
     var s = start_integration(r);
     var stopped = false;
     var taken = 0u;

@@ -8,6 +8,8 @@ override BACK_TO_FRONT: bool = false;
 override JITTER: bool = false;
 // Emission–absorption from the (front, back) table instead of the midpoint.
 override PRE_INTEGRATED: bool = false;
+// Points of a Poisson process instead of one midpoint a segment (tracking.wgsl).
+override UNBIASED: bool = false;
 
 // SHADING_AMBIENT_ONLY (no normals read), SHADING_NORMALS (supplied) or
 // SHADING_GRADIENT (on the fly). Single scattering reads no normals: there

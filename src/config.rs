@@ -62,6 +62,10 @@ pub struct RenderConfig {
     /// Emission–absorption with a pre-integrated table over (front, back)
     /// values per segment instead of one midpoint sample.
     pub pre_integrated: bool,
+    /// Each frame an unbiased estimate of the exact integral: points of a
+    /// Poisson process composited with opacity sigma / rate (ratio tracking)
+    /// instead of one midpoint sample per segment.
+    pub unbiased: bool,
     pub order: Order,
 }
 
@@ -100,6 +104,10 @@ impl Preset {
 }
 
 pub const DEFAULT_REFERENCE_STEP: f64 = 0.01;
+/// The densest Poisson process an unbiased frame uses, in points per step:
+/// it bounds the work per step (and so per pass), and biases only media
+/// whose optical depth over a step exceeds it (e^-16 = 1e-7 transmitted).
+pub const MAX_POINTS_PER_STEP: f64 = 16.0;
 /// pyvr's estimate divides the unit cube's diagonal (sqrt 3, written 1.732) by the step.
 const UNIT_CUBE_DIAGONAL: f64 = 1.732;
 
@@ -132,6 +140,7 @@ impl RenderConfig {
             jitter: false,
             jitter_seed: 0,
             pre_integrated: false,
+            unbiased: false,
             order: Order::FrontToBack,
         }
     }
@@ -207,7 +216,33 @@ impl RenderConfig {
                 self.model.name()
             )));
         }
+        if self.unbiased {
+            if !matches!(self.model, Model::EmissionAbsorption | Model::Absorption | Model::Emission) {
+                return Err(Error::InvalidInput(format!(
+                    "unbiased applies to the 'emission_absorption', 'absorption' and 'emission' models, not '{}'",
+                    self.model.name()
+                )));
+            }
+            if self.pre_integrated {
+                return Err(Error::InvalidInput(
+                    "unbiased and pre_integrated exclude each other: unbiased frames sample points, \
+                     not (front, back) segments"
+                        .into(),
+                ));
+            }
+        }
         Ok(warnings)
+    }
+
+    /// Points per unit length of an unbiased frame's Poisson process, given
+    /// the largest extinction per unit length its transfer function reaches:
+    /// that majorant (so no point's opacity sigma / rate exceeds 1), but at
+    /// least one point per step on average, and at most
+    /// `MAX_POINTS_PER_STEP` (extinction above that is taken as opaque).
+    pub fn tracking_rate(&self, max_extinction: f64) -> f64 {
+        let floor = 1.0 / self.step_size;
+        let m = if max_extinction.is_nan() { f64::INFINITY } else { max_extinction };
+        m.max(floor).min(MAX_POINTS_PER_STEP * floor)
     }
 
     /// pyvr: `min(int(1.732 / step_size), max_steps)`.

@@ -45,6 +45,9 @@ CONFIGS = {
     "back_to_front": {"order": "back_to_front"},
     "jitter_early_stop": {"jitter": True, "opacity_threshold": 0.7},
     "pre_integrated": {"pre_integrated": True},
+    # Each segment's Poisson points are seeded by the segment, whichever brick marches it.
+    "unbiased": {"unbiased": True, "opacity_threshold": 0.7},
+    "unbiased_back_to_front": {"unbiased": True, "order": "back_to_front"},
     "power_correction": {"opacity_correction": "power"},
     "absorption": {"model": "absorption"},
     "emission": {"model": "emission"},

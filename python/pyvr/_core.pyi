@@ -27,6 +27,7 @@ class RenderConfig:
     jitter: bool
     jitter_seed: int
     pre_integrated: bool
+    unbiased: bool
     order: str
     def __init__(
         self,
@@ -44,6 +45,7 @@ class RenderConfig:
         jitter: bool = False,
         jitter_seed: int = 0,
         pre_integrated: bool = False,
+        unbiased: bool = False,
         order: str = "front_to_back",
     ) -> None: ...
     def replace(self, **changes: Any) -> "RenderConfig": ...

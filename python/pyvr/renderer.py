@@ -815,6 +815,9 @@ class VolumeRenderer:
         cfg = self._config_snapshot if config is None else config
         if not isinstance(cfg, RenderConfig):
             raise TypeError(f"Expected RenderConfig instance, got {type(cfg)}")
+        if cfg.unbiased:
+            raise ValueError("render_float64 integrates on the step grid; unbiased frames have no float64 "
+                             "counterpart: compare their mean with a converged frame of config.replace(unbiased=False)")
         if not self._has_tf:
             self.set_transfer_functions(ColorTransferFunction(), OpacityTransferFunction())
         if self._camera_args is None:

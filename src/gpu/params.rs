@@ -69,7 +69,9 @@ uniform_block! {
         /// Sampled value -> transfer-function domain: v * scale + offset.
         pub value_scale: f32,
         pub value_offset: f32,
-        pub value_pad: [f32; 2],
+        /// Points per unit length of unbiased frames' Poisson process.
+        pub track_rate: f32,
+        pub value_pad: f32,
         /// The box rays march in (a crop, or the whole volume).
         pub clip_lo: [f32; 4],
         pub clip_hi: [f32; 4],
@@ -108,6 +110,8 @@ pub struct FrameInputs {
     pub value_map: ValueMap,
     /// Crop box in world coordinates (None: the whole volume).
     pub clip: Option<Bounds>,
+    /// The transfer function's largest extinction per reference step.
+    pub max_extinction: f64,
 }
 
 /// World length of one shader length unit for a volume in `bounds`: its
@@ -168,7 +172,8 @@ impl Params {
             preint_side: preintegrate::table_side(f.lut_size as usize) as f32,
             value_scale: f.value_map.scale as f32,
             value_offset: f.value_map.offset as f32,
-            value_pad: [0.0; 2],
+            track_rate: finite_f32(cfg.tracking_rate(f.max_extinction / cfg.reference_step_size) / s),
+            value_pad: 0.0,
             clip_lo: v4((clip.min - b.min) * s),
             clip_hi: v4((clip.max - b.min) * s),
             tex_scale: v4(1.0 / ext),

@@ -37,6 +37,8 @@ pub struct Variant {
     pub back_to_front: bool,
     pub jitter: bool,
     pub pre_integrated: bool,
+    /// Poisson points composited with opacity sigma / rate (ratio tracking).
+    pub unbiased: bool,
 }
 
 /// Whether rays march from the far end: only where the order changes the
@@ -71,10 +73,11 @@ impl Variant {
             back_to_front,
             jitter: cfg.jitter,
             pre_integrated: cfg.pre_integrates(),
+            unbiased: cfg.unbiased && model.integrates() && model != Model::SingleScattering,
         }
     }
 
-    fn constants(&self) -> [(&'static str, f64); 11] {
+    fn constants(&self) -> [(&'static str, f64); 12] {
         [
             ("SHADING", self.shading.code() as f64),
             ("POINT_LIGHT", self.point_light as u32 as f64),
@@ -87,6 +90,7 @@ impl Variant {
             ("BACK_TO_FRONT", self.back_to_front as u32 as f64),
             ("JITTER", self.jitter as u32 as f64),
             ("PRE_INTEGRATED", self.pre_integrated as u32 as f64),
+            ("UNBIASED", self.unbiased as u32 as f64),
         ]
     }
 }

@@ -41,7 +41,8 @@ pub struct PassPlan {
 
 /// The passes for `pixels` rays from `camera` through `bounds` at `cfg`.
 /// `shadow_rays`: single scattering with a light, where every step may march
-/// a shadow ray across the box. A frame of more than twice `pass_samples`
+/// a shadow ray across the box. `points_per_step`: the mean number of
+/// samples a step takes (1, or an unbiased frame's Poisson points). A frame of more than twice `pass_samples`
 /// samples is split into passes of about `pass_samples` each, so that the
 /// caller regains control (to stop on Ctrl-C) every pass; shorter frames
 /// keep one pass. Samples here are planned ones (`planned_samples`), an
@@ -51,6 +52,7 @@ pub fn plan(
     bounds: &Bounds,
     camera: DVec3,
     shadow_rays: bool,
+    points_per_step: f64,
     pixels: u64,
     pass_samples: u64,
 ) -> Result<PassPlan, Error> {
@@ -71,6 +73,11 @@ pub fn plan(
             )));
         }
         samples_per_step = shadow as u64 + 1;
+        pass_steps = (PASS_ITERATIONS / samples_per_step).clamp(1, PASS_STEPS as u64);
+    } else if points_per_step > 1.0 {
+        // Loop iterations: the points (a Poisson count, 1.5x its mean covers
+        // its spread over a pass) and one more per step that moves on.
+        samples_per_step = (1.5 * points_per_step).ceil().min(1e6) as u64 + 1;
         pass_steps = (PASS_ITERATIONS / samples_per_step).clamp(1, PASS_STEPS as u64);
     }
     let per_step = pixels.max(1).saturating_mul(samples_per_step);
@@ -103,7 +110,7 @@ mod tests {
     #[test]
     fn short_rays_take_one_pass() {
         let cfg = RenderConfig::default();
-        let p = plan(&cfg, &cube(), DVec3::new(3.0, 0.0, 0.0), false, 1, ANY).unwrap();
+        let p = plan(&cfg, &cube(), DVec3::new(3.0, 0.0, 0.0), false, 1.0, 1, ANY).unwrap();
         assert_eq!((p.passes, p.pass_steps, p.per_pixel_state), (1, PASS_STEPS, false));
         // The longest chord from (3, 0, 0) is under 2*sqrt(3): 347 steps of 0.01, plus 2.
         assert!(p.max_steps_needed <= 349 && p.max_steps_needed > 200);
@@ -112,23 +119,34 @@ mod tests {
     #[test]
     fn long_rays_take_several_passes_with_state() {
         let cfg = RenderConfig { step_size: 1e-4, max_steps: 100_000, ..RenderConfig::default() };
-        let p = plan(&cfg, &cube(), DVec3::new(3.0, 0.0, 0.0), false, 1, ANY).unwrap();
+        let p = plan(&cfg, &cube(), DVec3::new(3.0, 0.0, 0.0), false, 1.0, 1, ANY).unwrap();
         assert_eq!(p.passes as u64, p.max_steps_needed.div_ceil(PASS_STEPS as u64));
         assert!(p.passes >= 2 && p.per_pixel_state);
         // max_steps bounds the work whatever the box.
         let capped = RenderConfig { max_steps: 10, ..cfg };
-        assert_eq!(plan(&capped, &cube(), DVec3::new(3.0, 0.0, 0.0), false, 1, ANY).unwrap().max_steps_needed, 10);
+        assert_eq!(plan(&capped, &cube(), DVec3::new(3.0, 0.0, 0.0), false, 1.0, 1, ANY).unwrap().max_steps_needed, 10);
     }
 
     #[test]
     fn shadow_rays_shorten_passes_and_have_a_limit() {
         let cfg = RenderConfig { model: Model::SingleScattering, shadow_step_size: 0.01, ..RenderConfig::default() };
-        let p = plan(&cfg, &cube(), DVec3::new(3.0, 0.0, 0.0), true, 1, ANY).unwrap();
+        let p = plan(&cfg, &cube(), DVec3::new(3.0, 0.0, 0.0), true, 1.0, 1, ANY).unwrap();
         let shadow = (cube().extent().length() / 0.01).ceil() as u64 + 1;
         assert_eq!(p.pass_steps as u64, PASS_ITERATIONS / (shadow + 1));
         let tiny = RenderConfig { shadow_step_size: 1e-6, ..cfg };
-        let err = plan(&tiny, &cube(), DVec3::new(3.0, 0.0, 0.0), true, 1, ANY).unwrap_err();
+        let err = plan(&tiny, &cube(), DVec3::new(3.0, 0.0, 0.0), true, 1.0, 1, ANY).unwrap_err();
         assert!(matches!(err, Error::InvalidInput(ref m) if m.contains("shadow_step_size must be at least")), "{err}");
+    }
+
+    #[test]
+    fn dense_poisson_points_shorten_passes() {
+        let cfg = RenderConfig { step_size: 1e-4, max_steps: 100_000, unbiased: true, ..RenderConfig::default() };
+        let p = plan(&cfg, &cube(), DVec3::new(3.0, 0.0, 0.0), false, 16.0, 1, ANY).unwrap();
+        // 24 points and one move per step: the loop stays under lavapipe's cap.
+        assert_eq!(p.pass_steps as u64, PASS_ITERATIONS / 25);
+        assert!(p.pass_steps as u64 * 25 < 65_535);
+        let sparse = plan(&cfg, &cube(), DVec3::new(3.0, 0.0, 0.0), false, 1.0, 1, ANY).unwrap();
+        assert_eq!(sparse.pass_steps, PASS_STEPS);
     }
 
     #[test]
@@ -136,20 +154,20 @@ mod tests {
         let cfg = RenderConfig { step_size: 1e-3, max_steps: 100_000, ..RenderConfig::default() };
         let far = DVec3::new(3.0, 0.0, 0.0);
         // 2^16 pixels, about 3.5k steps each: 2.3e8 samples against a budget of 2^22.
-        let p = plan(&cfg, &cube(), far, false, 1 << 16, 1 << 22).unwrap();
+        let p = plan(&cfg, &cube(), far, false, 1.0, 1 << 16, 1 << 22).unwrap();
         assert_eq!(p.pass_steps, 64);
         assert_eq!(p.passes as u64, p.max_steps_needed.div_ceil(64));
         // The same frame within twice the budget keeps one pass.
-        let one = plan(&cfg, &cube(), far, false, 1 << 16, 1 << 30).unwrap();
+        let one = plan(&cfg, &cube(), far, false, 1.0, 1 << 16, 1 << 30).unwrap();
         assert_eq!(one.passes, 1);
         // Passes never go below MIN_PASS_STEPS, however many pixels.
-        let huge = plan(&cfg, &cube(), far, false, 1 << 40, 1 << 22).unwrap();
+        let huge = plan(&cfg, &cube(), far, false, 1.0, 1 << 40, 1 << 22).unwrap();
         assert_eq!(huge.pass_steps as u64, MIN_PASS_STEPS);
     }
 
     #[test]
     fn isosurface_keeps_depth_state() {
         let cfg = RenderConfig { model: Model::Isosurface, ..RenderConfig::default() };
-        assert!(plan(&cfg, &cube(), DVec3::new(3.0, 0.0, 0.0), false, 1, ANY).unwrap().per_pixel_state);
+        assert!(plan(&cfg, &cube(), DVec3::new(3.0, 0.0, 0.0), false, 1.0, 1, ANY).unwrap().per_pixel_state);
     }
 }

@@ -16,7 +16,7 @@ use std::fmt::Write;
 pub const ISO_BISECTIONS: u32 = 8;
 
 /// The shader's files, in the order they are joined.
-pub const FILES: [(&str, &str); 10] = [
+pub const FILES: [(&str, &str); 11] = [
     ("overrides.wgsl", include_str!("../../shaders/overrides.wgsl")),
     ("bindings.wgsl", include_str!("../../shaders/bindings.wgsl")),
     ("sampling.wgsl", include_str!("../../shaders/sampling.wgsl")),
@@ -24,6 +24,7 @@ pub const FILES: [(&str, &str); 10] = [
     ("lighting.wgsl", include_str!("../../shaders/lighting.wgsl")),
     ("rays.wgsl", include_str!("../../shaders/rays.wgsl")),
     ("compositing.wgsl", include_str!("../../shaders/compositing.wgsl")),
+    ("tracking.wgsl", include_str!("../../shaders/tracking.wgsl")),
     ("projections.wgsl", include_str!("../../shaders/projections.wgsl")),
     ("isosurface.wgsl", include_str!("../../shaders/isosurface.wgsl")),
     ("main.wgsl", include_str!("../../shaders/main.wgsl")),

@@ -68,7 +68,7 @@ mod tests;
 use compositing::integrate;
 pub use lighting::light_transmittance;
 use projections::{isosurface, project};
-pub use optics::{corrected_alpha, extinction, one_minus_exp_neg, SHADOW_TAU_MAX};
+pub use optics::{corrected_alpha, extinction, max_extinction, one_minus_exp_neg, SHADOW_TAU_MAX};
 
 /// Segments a chord of `len` needs when the grid starts `shift` steps
 /// before its entry: `ceil(len / step - shift)`.

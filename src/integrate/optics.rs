@@ -31,6 +31,13 @@ pub fn extinction(a: f64, form: OpacityCorrection) -> f64 {
     }
 }
 
+/// The largest extinction per reference step a transfer-function table
+/// reaches (its entries are interpolated linearly, so the largest entry's):
+/// the majorant of unbiased frames' Poisson process.
+pub fn max_extinction(rows: &[[f32; 4]], form: OpacityCorrection) -> f64 {
+    rows.iter().map(|r| extinction(r[3] as f64, form)).fold(0.0, f64::max)
+}
+
 /// Opacity of a segment of length `len` for transfer-function opacity `a`.
 #[inline]
 pub fn corrected_alpha(a: f64, len_over_ref: f64, form: OpacityCorrection) -> f64 {

@@ -11,7 +11,7 @@ use pyo3::types::PyType;
 use std::ffi::CString;
 
 /// Field names `replace()` accepts.
-const FIELDS: [&str; 14] = [
+const FIELDS: [&str; 15] = [
     "step_size",
     "max_steps",
     "early_ray_termination",
@@ -25,6 +25,7 @@ const FIELDS: [&str; 14] = [
     "jitter",
     "jitter_seed",
     "pre_integrated",
+    "unbiased",
     "order",
 ];
 
@@ -116,6 +117,9 @@ render_config_methods! {
         jitter / set_jitter: bool;
         /// Integrate each segment from a (front, back) table (emission_absorption only).
         pre_integrated / set_pre_integrated: bool;
+        /// Each frame an unbiased estimate of the exact integral (Poisson
+        /// points, ratio tracking): ``render(accumulate=n)`` converges to it.
+        unbiased / set_unbiased: bool;
     }
     named {
         /// "exponential" (pyvr: 1 - exp(-a*d/ref)) or "power" (VTK: 1 - (1-a)^(d/ref)).
@@ -128,7 +132,7 @@ render_config_methods! {
     }
 
     #[new]
-    #[pyo3(signature = (step_size=None, max_steps=None, early_ray_termination=None, opacity_threshold=None, reference_step_size=None, opacity_correction="exponential", *, model="emission_absorption", iso_value=None, anisotropy=None, shadow_step_size=None, jitter=None, jitter_seed=None, pre_integrated=None, order="front_to_back"))]
+    #[pyo3(signature = (step_size=None, max_steps=None, early_ray_termination=None, opacity_threshold=None, reference_step_size=None, opacity_correction="exponential", *, model="emission_absorption", iso_value=None, anisotropy=None, shadow_step_size=None, jitter=None, jitter_seed=None, pre_integrated=None, unbiased=None, order="front_to_back"))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -145,6 +149,7 @@ render_config_methods! {
         jitter: Option<&Bound<'_, PyAny>>,
         jitter_seed: Option<&Bound<'_, PyAny>>,
         pre_integrated: Option<&Bound<'_, PyAny>>,
+        unbiased: Option<&Bound<'_, PyAny>>,
         order: &str,
     ) -> PyResult<Self> {
         let d = RenderConfig::default();
@@ -165,6 +170,7 @@ render_config_methods! {
             jitter: arg("jitter", jitter, d.jitter)?,
             jitter_seed: jitter_seed.map_or(Ok(d.jitter_seed), seed)?,
             pre_integrated: arg("pre_integrated", pre_integrated, d.pre_integrated)?,
+            unbiased: arg("unbiased", unbiased, d.unbiased)?,
             order: Order::parse(order).map_err(to_py)?,
         };
         checked(py, &inner)?;
@@ -268,6 +274,7 @@ render_config_methods! {
         state.set_item("jitter", c.jitter)?;
         state.set_item("jitter_seed", c.jitter_seed)?;
         state.set_item("pre_integrated", c.pre_integrated)?;
+        state.set_item("unbiased", c.unbiased)?;
         state.set_item("order", c.order.name())?;
         Ok((
             slf.get_type().into_any().unbind(),

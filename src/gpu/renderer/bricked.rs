@@ -222,6 +222,7 @@ impl GpuRenderer {
             occ_levels: 1,
             value_map: self.value_map,
             clip: self.clip,
+            max_extinction: self.max_extinction(cfg),
         };
         let params = Params { keep_state: keep_state as u32, ..Params::new(&inputs, &basis, light, cfg) };
         // The eye in continuous voxel coordinates.

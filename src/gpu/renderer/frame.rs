@@ -9,6 +9,7 @@ use crate::gpu::pipeline::{Layout, Variant, WORKGROUP};
 use crate::gpu::plan::{plan, PassPlan};
 use crate::gpu::readback::read_buffers;
 use crate::gpu::resources::{readback_buffer, PreintKey, RayState};
+use crate::integrate::max_extinction;
 use crate::model::Model;
 use crate::scene::{Camera, Light, Shading};
 
@@ -94,6 +95,11 @@ impl GpuRenderer {
         FrameStats { uploaded_bytes: uploaded, ..stats }
     }
 
+    /// The transfer function's largest extinction per reference step.
+    pub(super) fn max_extinction(&self, cfg: &RenderConfig) -> f64 {
+        max_extinction(&self.tables.rows, cfg.opacity_correction)
+    }
+
     fn params(&self, camera: &Camera, light: &Light, cfg: &RenderConfig) -> Result<Params, Error> {
         let vol = self.volume.as_ref().expect("checked by check_ready");
         let basis = camera.basis(self.width, self.height)?;
@@ -106,6 +112,7 @@ impl GpuRenderer {
             occ_levels: self.occupancy.levels,
             value_map: self.value_map,
             clip: self.clip,
+            max_extinction: self.max_extinction(cfg),
         };
         Ok(Params::new(&inputs, &basis, light, cfg))
     }
@@ -122,7 +129,12 @@ impl GpuRenderer {
         let variant = Variant::new(shading, light.kind, cfg, layout, skip);
         let shadow_rays = cfg.model == Model::SingleScattering && variant.shading != Shading::AmbientOnly;
         let pixels = self.width as u64 * self.height as u64;
-        let passes = plan(cfg, &vol.bounds, camera.position, shadow_rays, pixels, self.pass_samples())?;
+        let points = if cfg.unbiased {
+            cfg.tracking_rate(self.max_extinction(cfg) / cfg.reference_step_size) * cfg.step_size
+        } else {
+            1.0
+        };
+        let passes = plan(cfg, &vol.bounds, camera.position, shadow_rays, points, pixels, self.pass_samples())?;
         if passes.per_pixel_state && self.frame.ray_state.pixels < pixels {
             let limit = self.ctx.max_storage_bytes();
             if pixels * 16 > limit {
