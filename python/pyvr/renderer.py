@@ -297,6 +297,8 @@ def _check_volume_fits(volume: Volume, precision: str) -> None:
 LONG_FRAME_SAMPLES = 5e9
 #: The same for the float64 integrator (one CPU core does about 1e7 per second).
 LONG_FLOAT64_SAMPLES = 5e8
+#: Models with unbiased frames (RenderConfig.unbiased), which accumulate uses.
+UNBIASED_MODELS = ("emission_absorption", "absorption", "emission")
 
 
 def _frame_samples(bounds, cfg: RenderConfig, width: int, height: int) -> float:
@@ -754,12 +756,15 @@ class VolumeRenderer:
         renderer's own (the same view, e.g. a cheap preview while a user
         drags); config: a RenderConfig for this frame only. Neither changes
         the renderer's settings.
-        accumulate: average this many jittered frames (seeds jitter_seed,
-        jitter_seed + 1, ...; premultiplied colour, before any background):
-        banding from the step turns into noise that falls as 1/sqrt(n), and
-        the average converges to the mean over sample offsets, which is
-        closer to the exact integral than one unjittered frame at the same
-        step (docs/rendering.md). It costs n frames; Ctrl-C stops it.
+        accumulate: average this many frames (seeds jitter_seed,
+        jitter_seed + 1, ...; premultiplied colour, before any background)
+        for progressive refinement. For emission_absorption, absorption and
+        emission they are unbiased frames (``config.replace(unbiased=True)``):
+        their error falls as 1/sqrt(n) towards the exact integral, whatever
+        the step. Pre-integrated configs and the other models average
+        jittered frames, whose mean converges to the mean over sample
+        offsets instead (docs/rendering.md). It costs n frames; Ctrl-C
+        stops it.
         """
         bg = None if background is None else _colour(background)
         if origin not in ("lower", "upper"):
@@ -777,11 +782,16 @@ class VolumeRenderer:
         return output_image(img, dt, premultiplied, bg, origin)
 
     def _accumulated(self, size, config: Optional[RenderConfig], n: int) -> np.ndarray:
-        """The mean of n jittered premultiplied frames (float64 sums)."""
+        """The mean of n premultiplied frames (float64 sums): unbiased ones
+        where the model and config allow them, else jittered ones."""
         base = self._config_snapshot if config is None else config
+        if base.model in UNBIASED_MODELS and not base.pre_integrated:
+            base = base.replace(unbiased=True)
+        else:
+            base = base.replace(jitter=True)
         total = None
         for k in range(n):
-            frame = self._render_float(size, base.replace(jitter=True, jitter_seed=(base.jitter_seed + k) % 2**32))
+            frame = self._render_float(size, base.replace(jitter_seed=(base.jitter_seed + k) % 2**32))
             total = frame.astype(np.float64) if total is None else total + frame
         return (total / n).astype(np.float32)
 
