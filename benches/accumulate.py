@@ -44,22 +44,35 @@ def main() -> None:
     exact = r.render_float64(premultiplied=True, progress=False,
                              config=RenderConfig(step_size=2e-4, max_steps=100_000, early_ray_termination=False))
 
-    def measure(**kw):
-        r.render(dtype=np.float32, premultiplied=True, **kw)  # warm
+    def mean_of(config, n):
+        """The mean of n frames of `config` with consecutive seeds."""
+        frames = (r.render(dtype=np.float32, premultiplied=True, config=config.replace(jitter_seed=k))
+                  for k in range(n))
+        return sum(f.astype(np.float64) for f in frames) / n
+
+    def measure(config, n):
+        # accumulate=n takes unbiased frames where it can; jittered midpoint
+        # frames are averaged here, the same way.
+        def one():
+            if n == 1 or config.unbiased or config.pre_integrated:
+                return r.render(dtype=np.float32, premultiplied=True, config=config, accumulate=n)
+            return mean_of(config, n)
+
+        one()  # warm
         times, img = [], None
         for _ in range(3):
             t = time.perf_counter()
-            img = r.render(dtype=np.float32, premultiplied=True, **kw)
+            img = one()
             times.append((time.perf_counter() - t) * 1000)
         d = (img - exact) * 255
         return float(np.median(times)), float(np.sqrt(np.mean(d**2))), float(d.mean()), float(np.abs(d).max())
 
     rows = []
 
-    def series(label, ns, **kw):
+    def series(label, ns, config=cfg):
         first = None
         for n in ns:
-            ms, rms, bias, mx = measure(accumulate=n, **kw) if n > 1 else measure(**kw)
+            ms, rms, bias, mx = measure(config, n)
             first = rms if first is None else first
             predicted = "" if n == 1 else round(first / np.sqrt(n), 2)
             rows.append([label, n, round(ms, 1), round(rms, 2), predicted, round(bias, 3), round(mx, 1)])
