@@ -11,7 +11,13 @@ error is floored at a quarter of an 8-bit level, the f32 arithmetic and
 filtered fetches GPU frames differ from the float64 integrator by: alpha
 near 1 has almost no spread, and 0.1-level offsets there would dominate.
 Measured on the test's scene: unbiased z 1.06 / 0.90 / 0.86 at n = 64 /
-256 / 1024; the jittered midpoint frames' 3.8 / 7.1 at n = 64 / 256."""
+256 / 1024; the jittered midpoint frames' 3.8 / 7.1 at n = 64 / 256.
+A bias of one sign shows in the mean over all pixels: -2.6 levels for the
+jittered frames, 0.02 (standard error 0.03) for unbiased ones. What these
+tests catch, tried on the shader: opacity 1 - exp(-sigma / rate) for
+sigma / rate gives z 4.1-4.6 and a mean error of -0.8 to -1.8 levels in
+every order and model it applies to; opacity 3% too high (mean error 0.1-
+0.15 levels here) is within the tests' noise."""
 
 import pickle
 import warnings
@@ -47,6 +53,23 @@ def frames(r, cfg, n):
     return np.stack([frame(r, config=cfg.replace(jitter_seed=k)) for k in range(n)]).astype(np.float64)
 
 
+def global_bias(stack, reference):
+    """The mean signed error over all values of the n-frame mean, and its
+    standard error from the frames' spread: a bias of one sign (too much
+    or too little opacity everywhere) shows here long before it does per
+    pixel."""
+    per_frame = (stack - reference).reshape(len(stack), -1).mean(axis=1)
+    return float(per_frame.mean()), float(per_frame.std(ddof=1) / np.sqrt(len(stack)))
+
+
+def assert_unbiased(stack, reference, min_live):
+    z, live = z_rms(stack, reference)
+    b, se = global_bias(stack, reference)
+    assert live > min_live and z < 1.35, (z, live)
+    # 4 standard errors, plus 0.05 level for f32 arithmetic.
+    assert abs(b) < 4 * se + 0.05 / 255, (b * 255, se * 255)
+
+
 def z_rms(stack, reference):
     """RMS over the values that vary of (mean - reference) / standard error."""
     spread = stack.std(axis=0, ddof=1)
@@ -58,9 +81,7 @@ def z_rms(stack, reference):
 
 def test_the_mean_of_unbiased_frames_has_no_bias(r):
     ref = exact(r)
-    z, live = z_rms(frames(r, CFG.replace(unbiased=True), 256), ref)
-    assert live > 1000, live
-    assert z < 1.3, z
+    assert_unbiased(frames(r, CFG.replace(unbiased=True), 256), ref, 1000)
     # The jittered midpoint frames' mean, the same test: its bias shows.
     zj, _ = z_rms(frames(r, CFG.replace(jitter=True), 256), ref)
     assert zj > 4.0, zj
@@ -70,7 +91,7 @@ def test_the_error_falls_as_one_over_sqrt_n(r):
     ref = exact(r)
     u = CFG.replace(unbiased=True)
     rms = {n: np.sqrt(np.mean((frame(r, config=u, accumulate=n) - ref) ** 2)) * 255 for n in (4, 64)}
-    jittered = np.sqrt(np.mean((frame(r, config=CFG, accumulate=64) - ref) ** 2)) * 255
+    jittered = np.sqrt(np.mean((frames(r, CFG.replace(jitter=True), 64).mean(axis=0) - ref) ** 2)) * 255
     # sqrt(64 / 4) = 4 with no floor; the jittered mean stalls at its bias.
     assert 3.2 < rms[4] / rms[64] < 5.0, rms
     assert rms[64] < 0.5 * jittered, (rms, jittered)
@@ -86,8 +107,7 @@ def test_the_error_falls_as_one_over_sqrt_n(r):
 def test_every_order_model_and_roulette_is_unbiased(r, changes):
     # Early termination becomes Russian roulette: still unbiased.
     ref_changes = {k: v for k, v in changes.items() if k not in ("early_ray_termination", "opacity_threshold")}
-    z, live = z_rms(frames(r, CFG.replace(unbiased=True, **changes), 128), exact(r, **ref_changes))
-    assert live > 250 and z < 1.35, (z, live)
+    assert_unbiased(frames(r, CFG.replace(unbiased=True, **changes), 128), exact(r, **ref_changes), 250)
 
 
 def test_a_homogeneous_cube_has_the_closed_form_opacity():
@@ -97,14 +117,13 @@ def test_a_homogeneous_cube_has_the_closed_form_opacity():
     r = make_renderer(Volume(data), size=(32, 32), config=CFG, light=Light.ambient_only(1.0),
                       camera=Camera.isometric_view(distance=1.5), otf=OpacityTransferFunction.linear(0.2, 0.2))
     ref = r.render_float64(premultiplied=True, progress=False, config=CFG)
-    z, live = z_rms(frames(r, CFG.replace(unbiased=True), 128), ref)
-    assert live > 250 and z < 1.35, (z, live)
+    assert_unbiased(frames(r, CFG.replace(unbiased=True), 128), ref, 250)
 
 
 def test_leaps_and_passes_see_the_same_points():
     # A sparse scene: skipping leaps over most cells, and a small step splits
     # rays into passes; neither may change which points a frame composites.
-    r = make_renderer(Volume(blob((40, 40, 40), centre=(0.3, -0.2, 0.1), width=0.35)), size=(32, 28),
+    r = make_renderer(Volume(blob((40, 40, 40), centre=(0.3, -0.2, 0.1), width=0.35)), size=(16, 14),
                       config=CFG, camera=Camera.isometric_view(distance=1.2),
                       otf=OpacityTransferFunction.peaks([0.3], opacity=0.6, eps=0.05))
     assert r.empty_fraction() > 0.5
@@ -123,8 +142,27 @@ def test_leaps_and_passes_see_the_same_points():
     # the mean of such frames has no bias either.
     ref = r.render_float64(premultiplied=True, progress=False, config=CONVERGED)
     r.empty_space_skipping = True
-    z, live = z_rms(frames(r, cfg, 64), ref)
-    assert live > 250 and z < 1.35, (z, live)
+    assert_unbiased(frames(r, cfg, 32), ref, 80)
+
+
+@pytest.mark.parametrize("order", ["front_to_back", "back_to_front"])
+def test_leaps_land_before_a_hard_face(order):
+    # A semi-transparent cube with hard faces near the empty cells around
+    # it, met from both sides: leaps must land before its first points
+    # (resuming 3 steps past the cells' far sides fails by 0.59 on 152 values;
+    # the cells' aprons make resuming less than a voxel late harmless).
+    data = np.zeros((48, 48, 48), np.float32)
+    data[17:31, 17:31, 17:31] = 1.0
+    r = make_renderer(Volume(data), size=(40, 36), config=CFG, camera=Camera.isometric_view(distance=1.5),
+                      otf=OpacityTransferFunction.one_step(0.5, 0.0, 0.02))
+    assert r.empty_fraction() > 0.3
+    cfg = CFG.replace(unbiased=True, order=order, step_size=0.1)
+    skipped = frame(r, config=cfg)
+    r.empty_space_skipping = False
+    plain = frame(r, config=cfg)
+    # Semi-transparent (optical depth about 1 at most), so every point counts.
+    assert 0.3 < plain[..., 3].max() < 0.95
+    assert np.abs(skipped - plain).max() < 1e-5, np.abs(skipped - plain).max()
 
 
 def test_unbiased_is_a_field_with_clear_limits():
