@@ -114,3 +114,42 @@ def test_example_notebook_runs_in_a_kernel(tmp_path, monkeypatch):
     gifs = [o for o in outputs if "image/gif" in o.get("data", {})]
     assert len(gifs) == 1 and (tmp_path / "orbit.gif").stat().st_size > 1000
     assert os.path.exists(os.path.join(SHARED_DATA, "fuel.vti")) == ("fuel" in repr(nb.cells[1].outputs[0].data))
+
+
+def test_view_refines_while_it_stands_still(renderer):
+    # Narrow opacity peaks, where unbiased means beat the midpoint frame.
+    from pyvr.transferfunctions import ColorTransferFunction, OpacityTransferFunction
+
+    renderer.set_transfer_functions(ColorTransferFunction.from_colormap("viridis"),
+                                    OpacityTransferFunction.peaks([0.3, 0.6], opacity=0.5, eps=0.03))
+    view = VolumeView(renderer, refine_frames=6)
+    first = view.draw()
+    assert np.array_equal(first, renderer.render(origin="upper"))
+    shown = [view.draw() for _ in range(6)]
+    # Refinement frames 1-3 keep the full frame on show; from 4 on, the
+    # running mean, which is render(accumulate=k); after 6 nothing more is
+    # rendered.
+    assert all(np.array_equal(img, first) for img in shown[:3])
+    for k, img in zip(range(4, 7), shown[3:]):
+        assert np.array_equal(img, renderer.render(origin="upper", accumulate=k)), k
+    assert not np.array_equal(shown[-1], first)
+    frames_before = renderer.counters()["frames"]
+    assert np.array_equal(view.draw(), shown[-1]) and view.refined == 6
+    assert renderer.counters()["frames"] == frames_before
+    # A change of the scene starts over from a full frame.
+    renderer.set_transfer_functions(ColorTransferFunction.from_colormap("viridis"),
+                                    OpacityTransferFunction.peaks([0.5], opacity=0.5, eps=0.03))
+    again = view.draw()
+    assert view.refined == 0 and np.array_equal(again, renderer.render(origin="upper"))
+    # So does a drag.
+    for _ in range(4):
+        view.draw()
+    assert view.refined == 4
+    view.handle_event({"type": "pointer_down", "x": 40, "y": 40, "button": 1})
+    view.handle_event({"type": "pointer_move", "x": 50, "y": 40, "button": 1})
+    view.draw()
+    view.handle_event({"type": "pointer_up", "x": 50, "y": 40, "button": 1})
+    view.draw()
+    assert view.refined == 0
+    with pytest.raises(ValueError, match="refine_frames"):
+        VolumeView(renderer, refine_frames=-1)

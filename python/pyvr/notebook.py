@@ -9,11 +9,21 @@ mouse drags or the wheel turns, frames are rendered cheaper (see
 0.5 s after the last scroll. The view is a ``jupyter_rfb.RemoteFrameBuffer``
 (an ipywidgets widget): ``pip install 'pyvr[notebook]'``.
 
+With ``refine_frames=n`` the view refines itself while it stands still:
+after the full frame it renders unbiased frames (``RenderConfig.unbiased``)
+one per draw and, from the fourth on, shows their running mean, which
+converges to the exact integral (the same image as
+``renderer.render(accumulate=k)``), until n frames; any interaction or
+change of the scene starts over. Off by default: it keeps the machine busy
+for n more frames after every interaction, and on smooth scenes the first
+means are noisier than the midpoint frame they replace (docs/rendering.md).
+
 Without a live notebook frontend (nbconvert, a script) nothing is drawn by
 itself; ``view.draw()`` renders a frame now and ``view.snapshot()`` shows it.
 A plain renderer also shows itself as a still image (``_repr_png_``).
 """
 
+import pickle
 import time
 from collections import deque
 from typing import Optional
@@ -21,6 +31,7 @@ from typing import Optional
 import numpy as np
 
 from ._extras import require
+from ._numbers import check_count
 
 require("jupyter_rfb", "notebook", "pyvr.notebook")
 
@@ -28,9 +39,12 @@ from jupyter_rfb import RemoteFrameBuffer  # noqa: E402
 
 from .camera import Camera, CameraController  # noqa: E402
 from .interaction import DragQuality  # noqa: E402
-from .renderer import VolumeRenderer  # noqa: E402
+from .renderer import UNBIASED_MODELS, VolumeRenderer, output_image  # noqa: E402
 
 SCROLL_SETTLE_SECONDS = 0.5
+# Refinement shows its running mean from this many frames on: four unbiased
+# frames have half the noise of one.
+REFINE_SHOW_FROM = 4
 
 
 class VolumeView(RemoteFrameBuffer):
@@ -51,7 +65,8 @@ class VolumeView(RemoteFrameBuffer):
         return super().__new__(cls)
 
     def __init__(self, renderer: VolumeRenderer, camera: Optional[Camera] = None, *, target_fps: float = 10.0,
-                 **kwargs):
+                 refine_frames: int = 0, **kwargs):
+        refine_frames = check_count("refine_frames", refine_frames, low=0, high=1 << 16)
         kwargs.setdefault("css_width", f"{renderer.width}px")
         kwargs.setdefault("css_height", f"{renderer.height}px")
         super().__init__(**kwargs)
@@ -69,6 +84,12 @@ class VolumeView(RemoteFrameBuffer):
         # Event-to-pixels seconds of the latest frames while interacting and after.
         self.drag_latencies: deque = deque(maxlen=200)
         self.release_latencies: deque = deque(maxlen=200)
+        self.refine_frames = refine_frames
+        # The running sum of unbiased frames, how many, and the scene they show.
+        self._refine_sum: Optional[np.ndarray] = None
+        self.refined = 0
+        self._refine_key = None
+        self._last_frame: Optional[np.ndarray] = None
 
     @property
     def camera(self) -> Camera:
@@ -136,15 +157,53 @@ class VolumeView(RemoteFrameBuffer):
             self._end()
 
     # -- frames ------------------------------------------------------------
-    def get_frame(self) -> np.ndarray:
+    def _scene_key(self) -> bytes:
+        """What a refined image depends on: a change restarts refinement."""
+        r = self.renderer
+        counters = r.counters()
+        # Pickled: it compares every config field and arrays by value.
+        return pickle.dumps((r._frame_camera(), r._light_args, r.get_config(), r.value_range, r.crop_box,
+                             counters["lut_uploads"], counters["volume_uploads"], r.width, r.height))
+
+    def _can_refine(self) -> bool:
+        cfg = self.renderer.get_config()
+        return self.refine_frames > 0 and cfg.model in UNBIASED_MODELS and not cfg.pre_integrated
+
+    def _refine(self) -> Optional[np.ndarray]:
+        """One more unbiased frame into the running mean: the mean to show,
+        or None while too few frames are in it."""
+        cfg = self.renderer.get_config()
+        seed = (cfg.jitter_seed + self.refined) % 2**32
+        frame = self.renderer.render(dtype=np.float32, premultiplied=True,
+                                     config=cfg.replace(unbiased=True, jitter_seed=seed))
+        self._refine_sum = frame.astype(np.float64) if self._refine_sum is None else self._refine_sum + frame
+        self.refined += 1
+        if self.refined < self.refine_frames:
+            self.request_draw()
+        if self.refined < min(REFINE_SHOW_FROM, self.refine_frames):
+            return None
+        mean = (self._refine_sum / self.refined).astype(np.float32)
+        return output_image(mean, np.dtype(np.uint8), False, None, "upper")
+
+    def get_frame(self) -> Optional[np.ndarray]:
         """The frame for the view's camera: (H, W, 4) uint8, top row first,
-        smaller while the user interacts (the browser stretches it)."""
+        smaller while the user interacts (the browser stretches it); while
+        refining, the running mean, or None when there is nothing new."""
         self.renderer.set_camera(self.controller.params)
         cheap = self._interacting
         if cheap:
+            self._refine_key = None
             img = self.drag_quality.render_drag(origin="upper")
+        elif self._can_refine() and self._refine_key is not None and self._refine_key == self._scene_key():
+            if self.refined >= self.refine_frames:
+                return None
+            return self._refine()
         else:
             img = self.drag_quality.render_full(origin="upper")
+            if self._can_refine():
+                self._refine_key = self._scene_key()
+                self._refine_sum, self.refined = None, 0
+                self.request_draw()
         if self._event_time is not None:
             latency = time.perf_counter() - self._event_time
             (self.drag_latencies if cheap else self.release_latencies).append(latency)
@@ -154,7 +213,11 @@ class VolumeView(RemoteFrameBuffer):
         return img
 
     def draw(self) -> np.ndarray:
-        """Render a frame now and send it to the view; returns it."""
+        """Render a frame now and send it to the view; returns what the view
+        shows (the last frame when refinement has nothing new)."""
         img = self.get_frame()
+        if img is None:
+            return self._last_frame
         self.send_frame(img)
+        self._last_frame = img
         return img
