@@ -57,6 +57,7 @@ def model_setups():
          dense, sun),
         ("ea + pre-integration", {"pre_integrated": True}, plasma, dense, Light.default()),
         ("ea + jitter", {"jitter": True}, plasma, dense, Light.default()),
+        ("ea unbiased", {"unbiased": True}, plasma, dense, Light.default()),
         ("ea back-to-front", {"order": "back_to_front"}, plasma, dense, Light.default()),
     ]
 
