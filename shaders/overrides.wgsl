@@ -10,6 +10,8 @@ override JITTER: bool = false;
 override PRE_INTEGRATED: bool = false;
 // Points of a Poisson process instead of one midpoint a segment (tracking.wgsl).
 override UNBIASED: bool = false;
+// Unbiased segments take their cell's rate (where any can be below the frame's).
+override CELL_RATES: bool = false;
 
 // SHADING_AMBIENT_ONLY (no normals read), SHADING_NORMALS (supplied) or
 // SHADING_GRADIENT (on the fly). Single scattering reads no normals: there

@@ -1,7 +1,8 @@
 // Unbiased frames (RenderConfig.unbiased): ratio tracking (Novák, Selle and
 // Jarosz 2014) on the segment grid. Each segment holds the points of a
-// Poisson process of rate P.track_rate, a majorant of the extinction, and
-// each point is composited like a segment of opacity sigma / rate. For a
+// Poisson process whose rate is a majorant of the extinction over the
+// segment, and each point is composited like a segment of opacity
+// sigma / rate. For a
 // Poisson process E[prod (1 - sigma(x_k) / rate)] = exp(-integral of sigma),
 // and the emitted colour sums the same way, so a frame's expectation is the
 // exact integral whatever the step; the step only sets the least density of
@@ -24,19 +25,40 @@ fn segment_stream(r: Ray, si: u32) -> u32 {
 }
 
 // The distance from one point of the process to the next.
-fn next_gap(state: ptr<function, u32>) -> f32 {
-    return -log(stream_uniform(state)) / P.track_rate;
+fn next_gap(state: ptr<function, u32>, rate: f32) -> f32 {
+    return -log(stream_uniform(state)) / rate;
+}
+
+// A segment's rate: the majorant its midpoint's occupancy cell holds (the
+// largest extinction over every segment centred in the cell, coded by
+// MinMaxGrid::majorants, 4.4% steps), at least one point a step and at most
+// the frame's rate (the transfer function's largest extinction, capped at
+// MAX_POINTS_PER_STEP a step). Cost then follows the extinction where rays
+// are, not the densest material anywhere. 0 for an empty cell when leaping:
+// its points would all add nothing (leaps pass such segments anyway).
+fn segment_rate(r: Ray, sp: vec2<f32>) -> f32 {
+    if (!CELL_RATES) {
+        // The frame's rate is the least one: no cell can lower it.
+        return P.track_rate;
+    }
+    let least = 1.0 / P.step_size;
+    let u = tex_of(point_at(r, sp.x + 0.5 * sp.y)) * vec3<f32>(textureDimensions(volume));
+    let c0 = max(vec3<i32>(floor(u / CELL)), vec3<i32>(0));
+    let q = textureLoad(occupancy, level_cell(c0, 0u), 0).r;
+    let cell = select(exp2((f32(q) - 128.0) / 16.0) * P.inv_ref, P.track_rate, q >= 255u || q == 0u);
+    let rate = clamp(cell, least, P.track_rate);
+    return select(rate, 0.0, SKIP_EMPTY && q == 0u);
 }
 
 // A point as a segment of opacity o = sigma / rate (optical depth
 // -ln(1 - o)); the emission model, which never absorbs, adds sigma / rate of
-// the colour. Extinction beyond the rate (capped at MAX_POINTS_PER_STEP a
-// step, src/config.rs) is taken as opaque.
-fn tracked_point(texel: vec4<f32>) -> Segment {
+// the colour. Extinction beyond the rate (where the frame's rate is capped
+// at MAX_POINTS_PER_STEP a step, src/config.rs) is taken as opaque.
+fn tracked_point(texel: vec4<f32>, rate: f32) -> Segment {
     let v = tf_value(texel.r);
     let valid = !is_nan(v);
     let rgba = eval_lut(select(0.0, v, valid));
-    let a = extinction(select(0.0, rgba.a, valid)) * P.inv_ref / P.track_rate;
+    let a = extinction(select(0.0, rgba.a, valid)) * P.inv_ref / rate;
     var g: Segment;
     g.texel = texel;
     g.have_texel = true;
@@ -78,6 +100,7 @@ fn march_tracking(r: Ray) {
     var si = 0u;
     var sp = vec2<f32>(0.0);
     var state = 0u;
+    var rate = 0.0;
     var u = 0.0;
     var skip_below = 0.0;
     var entered = false;
@@ -93,7 +116,12 @@ fn march_tracking(r: Ray) {
                 }
                 sp = span(r, si);
                 state = segment_stream(r, si);
-                u = next_gap(&state);
+                rate = segment_rate(r, sp);
+                // No points in an empty segment: it is passed at once.
+                u = 3.0e38;
+                if (rate > 0.0) {
+                    u = next_gap(&state, rate);
+                }
                 entered = true;
             }
             if (u >= sp.y) {
@@ -105,7 +133,7 @@ fn march_tracking(r: Ray) {
             if (u >= skip_below) {
                 break;
             }
-            u += next_gap(&state);
+            u += next_gap(&state, rate);
         }
         if (i >= r.end) {
             break;
@@ -117,8 +145,8 @@ fn march_tracking(r: Ray) {
         let p = point_at(r, at);
         let tc = tex_of(p);
         taken += 1u;
-        let g = tracked_point(volume_texel(tc));
-        u += next_gap(&state);
+        let g = tracked_point(volume_texel(tc), rate);
+        u += next_gap(&state, rate);
         if (SKIP_EMPTY && !(g.x > 0.0)) {
             let exit = empty_cell_exit(tc, dir);
             if (exit >= 0.0) {

@@ -8,6 +8,8 @@
 //! range is at an entry inside it or at its ends). Skipping such cells only
 //! removes samples whose opacity is exactly 0: images are unchanged.
 
+use crate::config::OpacityCorrection;
+use crate::integrate::extinction;
 use crate::transfer::ValueMap;
 use std::borrow::Cow;
 use crate::volume::{sanitize, VolumeView, Voxels};
@@ -199,15 +201,43 @@ impl MinMaxGrid {
     /// The table is indexed by mapped values (`map`: sample -> [0, 1]).
     pub fn occupancy(&self, lut: &[[f32; 4]], map: ValueMap) -> Vec<u8> {
         let m = lut.len();
-        if m == 0 {
-            return vec![0; self.min.len()];
-        }
         // Prefix counts of non-zero opacities: any-in-range in O(1).
         let mut nonzero = Vec::with_capacity(m + 1);
         nonzero.push(0u32);
         for e in lut {
             let last = *nonzero.last().unwrap_or(&0);
             nonzero.push(last + (e[3] > 0.0) as u32);
+        }
+        self.per_cell(m, map, |i0, i1| (nonzero[i1 + 1] > nonzero[i0]) as u8)
+    }
+
+    /// Per cell, the largest extinction per reference step the table
+    /// reaches over the cell's range, as a code: 0 where it is 0 (the cells
+    /// `occupancy` leaves empty), else `majorant_code` of it. Unbiased
+    /// frames draw each segment's Poisson points at the rate of the code of
+    /// the cell holding its midpoint.
+    pub fn majorants(&self, lut: &[[f32; 4]], map: ValueMap, form: OpacityCorrection) -> Vec<u8> {
+        let m = lut.len();
+        // Sparse table of range maxima: level k holds the max of 2^k entries.
+        let mut levels = vec![lut.iter().map(|e| extinction(e[3] as f64, form)).collect::<Vec<f64>>()];
+        while 1usize << levels.len() <= m {
+            let half = 1usize << (levels.len() - 1);
+            let prev = levels.last().map_or(&[][..], |v| &v[..]);
+            let next = (0..prev.len() - half).map(|i| prev[i].max(prev[i + half])).collect();
+            levels.push(next);
+        }
+        self.per_cell(m, map, |i0, i1| {
+            let k = (usize::BITS - 1 - (i1 - i0 + 1).leading_zeros()) as usize;
+            let e = levels[k][i0].max(levels[k][i1 + 1 - (1 << k)]);
+            if e > 0.0 { majorant_code(e) } else { 0 }
+        })
+    }
+
+    /// `f(i0, i1)` per cell: the table entries [i0, i1] the cell's mapped
+    /// range touches (0 for cells holding only NaN, or an empty table).
+    fn per_cell(&self, m: usize, map: ValueMap, f: impl Fn(usize, usize) -> u8) -> Vec<u8> {
+        if m == 0 {
+            return vec![0; self.min.len()];
         }
         let scale = (m - 1) as f64;
         self.min
@@ -223,10 +253,24 @@ impl MinMaxGrid {
                 let (lo, hi) = (map.apply(lo as f64), map.apply(hi as f64));
                 let i0 = (lo.clamp(0.0, 1.0) * scale - pad).max(0.0).floor() as usize;
                 let i1 = ((hi.clamp(0.0, 1.0) * scale + pad).ceil() as usize).min(m - 1);
-                (nonzero[i1 + 1] > nonzero[i0]) as u8
+                f(i0.min(i1), i1)
             })
             .collect()
     }
+}
+
+/// Code 1..=254 of an extinction per reference step `e` > 0: the smallest q
+/// with 2^((q - 128) / 16) >= e (a step of 4.4%, from 0.0041 to 235), with a
+/// margin for the shader's f32 exp2; 255 for larger or infinite ones (the
+/// frame's own rate, the transfer function's largest).
+pub fn majorant_code(e: f64) -> u8 {
+    let q = (16.0 * (e * (1.0 + 1e-4)).log2() + 128.0).ceil();
+    if !(q <= 254.0) { 255 } else { q.max(1.0) as u8 }
+}
+
+/// The extinction per reference step a code stands for (255: unbounded).
+pub fn majorant_of(code: u8) -> f64 {
+    if code == 255 { f64::INFINITY } else { ((code as f64 - 128.0) / 16.0).exp2() }
 }
 
 /// The ranges holding every segment of length `step` (world units) centred
@@ -420,6 +464,37 @@ mod tests {
         g.min = vec![0.41, 0.0];
         g.max = vec![0.42, 0.0];
         assert_eq!(g.occupancy(&step, ValueMap::IDENTITY), vec![1, 0]);
+    }
+
+    #[test]
+    fn majorants_bound_the_extinction_and_empty_cells_stay_empty() {
+        for e in [1e-9, 0.003, 0.01, 0.37, 1.0, 6.9, 200.0, 240.0, f64::INFINITY] {
+            let q = majorant_code(e);
+            assert!(q >= 1 && majorant_of(q) >= e, "{e}: code {q}");
+            // Within one code step (4.4%) above it, where the codes reach.
+            if (0.0042..234.0).contains(&e) {
+                assert!(majorant_of(q) < e * 1.05, "{e}: {}", majorant_of(q));
+            }
+        }
+        let data = vec![0.0f32; 8];
+        let v = VolumeView::new([1, 1, 8], Voxels::F32(&data), None, Bounds::default()).unwrap();
+        let mut g = MinMaxGrid::build(&v);
+        g.dims = [1, 1, 4];
+        g.min = vec![0.0, 0.05, 0.45, 0.0];
+        g.max = vec![0.04, 0.3, 0.55, 1.0];
+        // Opacity 0 up to 0.1, 0.2 to 0.5, 0.999 at 0.5, 0.1 above.
+        let lut: Vec<[f32; 4]> =
+            (0..11).map(|i| [1.0, 1.0, 1.0, [0.0, 0.0, 0.2, 0.2, 0.2, 0.999, 0.1, 0.1, 0.1, 0.1, 0.1][i]]).collect();
+        let q = g.majorants(&lut, ValueMap::IDENTITY, OpacityCorrection::Power);
+        let occ = g.occupancy(&lut, ValueMap::IDENTITY);
+        assert_eq!(q.iter().map(|&c| (c > 0) as u8).collect::<Vec<_>>(), occ);
+        assert_eq!(q[0], 0);
+        // Entries 0..=3 reach 0.2: -ln(0.8) = 0.223; the cells over 0.5 reach -ln(0.001) = 6.9.
+        assert_eq!(q[1], majorant_code(-(0.8f64).ln()));
+        assert_eq!(q[2], majorant_code(-(1.0 - 0.999f32 as f64).ln()));
+        assert_eq!(q[3], q[2]);
+        let exp = g.majorants(&lut, ValueMap::IDENTITY, OpacityCorrection::Exponential);
+        assert_eq!(exp[2], majorant_code(0.999f32 as f64));
     }
 
     #[test]

@@ -95,6 +95,27 @@ def test_bricked_frame_equals_single_texture(pair, name):
             assert np.abs(da[hit] - db[hit]).max() < 1e-4
 
 
+def test_bricked_unbiased_frames_with_cell_rates_have_the_same_mean(pair):
+    # At a step of 0.05 the table's largest extinction tops a point a step,
+    # so each segment takes its cell's rate: a brick's cells are its own,
+    # the points differ from the single texture's, and only the means agree.
+    whole, bricked = pair
+    cam = Camera.from_spherical(np.zeros(3), 0.7, 0.4, 0.0, 3.0)
+    stacks = []
+    for r in (whole, bricked):
+        r.set_camera(cam)
+        stacks.append(np.stack([r.render(dtype=np.float32, premultiplied=True,
+                                         config=config(unbiased=True, step_size=0.05, jitter_seed=k))
+                                for k in range(64)]).astype(np.float64))
+    a, b = stacks
+    se = np.sqrt((a.var(axis=0, ddof=1) + b.var(axis=0, ddof=1)) / len(a))
+    live = se > 1e-6
+    z = (a.mean(axis=0) - b.mean(axis=0))[live] / np.hypot(se[live], 0.25 * LEVEL)
+    assert live.sum() > 2000 and np.sqrt(np.mean(z**2)) < 1.3, (live.sum(), np.sqrt(np.mean(z**2)))
+    per_frame = (a - b).reshape(len(a), -1).mean(axis=1)
+    assert abs(per_frame.mean()) < 4 * per_frame.std(ddof=1) / np.sqrt(len(a)) + 0.05 * LEVEL
+
+
 def test_a_longer_step_recuts_the_bricks_with_wider_ghosts(pair):
     whole, bricked = pair
     ghost = bricked.bricks["ghost"]

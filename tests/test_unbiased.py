@@ -120,6 +120,24 @@ def test_a_homogeneous_cube_has_the_closed_form_opacity():
     assert_unbiased(frames(r, CFG.replace(unbiased=True), 128), ref, 250)
 
 
+@pytest.mark.parametrize("form", ["exponential", "power"])
+def test_cost_follows_the_extinction_where_rays_are(form):
+    # Faint tissue around an opaque core (opacity 1: unbounded extinction in
+    # the power form). One rate for the whole frame would draw 5 (exponential)
+    # or 16 (power, the cap) points a step everywhere; each segment takes its
+    # cell's majorant instead, and the frames stay unbiased.
+    otf = OpacityTransferFunction([(0.0, 0.0), (0.3, 0.01), (0.85, 0.01), (0.9, 1.0), (1.0, 1.0)])
+    r = make_renderer(Volume(blob((48, 48, 48), width=0.7)), size=(48, 40), config=CFG,
+                      camera=Camera.isometric_view(distance=1.5), otf=otf)
+    cfg = CFG.replace(opacity_correction=form)
+    frame(r, config=cfg)
+    midpoint = r.last_frame_stats["samples"]
+    frame(r, config=cfg.replace(unbiased=True))
+    # Measured 1.04 and 1.30 times the midpoint frame's samples.
+    assert r.last_frame_stats["samples"] < 1.5 * midpoint, (r.last_frame_stats["samples"], midpoint)
+    assert_unbiased(frames(r, cfg.replace(unbiased=True), 128), exact(r, opacity_correction=form), 1000)
+
+
 def test_leaps_and_passes_see_the_same_points():
     # A sparse scene: skipping leaps over most cells, and a small step splits
     # rays into passes; neither may change which points a frame composites.

@@ -39,6 +39,9 @@ pub struct Variant {
     pub pre_integrated: bool,
     /// Poisson points composited with opacity sigma / rate (ratio tracking).
     pub unbiased: bool,
+    /// Unbiased segments take their occupancy cell's rate (set by the frame,
+    /// where the transfer function's largest extinction tops a point a step).
+    pub cell_rates: bool,
 }
 
 /// Whether rays march from the far end: only where the order changes the
@@ -74,10 +77,11 @@ impl Variant {
             jitter: cfg.jitter,
             pre_integrated: cfg.pre_integrates(),
             unbiased: cfg.unbiased && model.integrates() && model != Model::SingleScattering,
+            cell_rates: false,
         }
     }
 
-    fn constants(&self) -> [(&'static str, f64); 12] {
+    fn constants(&self) -> [(&'static str, f64); 13] {
         [
             ("SHADING", self.shading.code() as f64),
             ("POINT_LIGHT", self.point_light as u32 as f64),
@@ -91,6 +95,7 @@ impl Variant {
             ("JITTER", self.jitter as u32 as f64),
             ("PRE_INTEGRATED", self.pre_integrated as u32 as f64),
             ("UNBIASED", self.unbiased as u32 as f64),
+            ("CELL_RATES", self.cell_rates as u32 as f64),
         ]
     }
 }

@@ -317,16 +317,18 @@ impl Tables {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum OccSource {
     /// Zero opacity under this version of the transfer function, over each
-    /// cell's range or, for pre-integrated frames, over the range of the
-    /// segments centred in it (`MinMaxGrid::for_segments`).
-    Lut { version: u64, ranges: SegmentRanges },
+    /// cell's range or, for pre-integrated and unbiased frames, over the
+    /// range of the segments centred in it (`MinMaxGrid::for_segments`);
+    /// occupied cells hold the code of their largest extinction under the
+    /// correction `form` (`MinMaxGrid::majorants`).
+    Lut { version: u64, ranges: SegmentRanges, form: OpacityCorrection },
     /// Values below this iso value (bits of the f64).
     Below(u64),
 }
 
 /// Which cells of the volume can show anything, as an R8Uint 3-D texture
-/// (one byte per 8^3 voxels) with up to 4 mip levels (cells of 8, 16, 32,
-/// 64 voxels).
+/// (one byte per 8^3 voxels, 0 where empty) with up to 4 mip levels (cells
+/// of 8, 16, 32, 64 voxels; levels above 0 hold 0 or 1).
 pub struct Occupancy {
     pub view: Option<wgpu::TextureView>,
     /// What the grid was built from.
@@ -343,7 +345,7 @@ impl Occupancy {
         Occupancy { view: None, source: None, empty_fraction: 0.0, levels: 1 }
     }
 
-    /// Uploads the grid `occ` (1 = may show) of `grid`'s cells, built from
+    /// Uploads the grid `occ` (0 = empty) of `grid`'s cells, built from
     /// `source`. Returns the bytes written.
     pub fn upload(&mut self, ctx: &GpuContext, grid: &MinMaxGrid, occ: &[u8], source: OccSource) -> Result<u64, Error> {
         let [g0, g1, g2] = grid.dims;

@@ -239,7 +239,11 @@ impl GpuRenderer {
             // (The cells' own ranges: a brick whose values, ghosts included,
             // all have opacity 0 holds only empty segments, pre-integrated too.)
             m if m.skips_transparent() && self.skip_empty => {
-                Some(OccSource::Lut { version: self.tables.version, ranges: SegmentRanges::Plain })
+                Some(OccSource::Lut {
+                    version: self.tables.version,
+                    ranges: SegmentRanges::Plain,
+                    form: cfg.opacity_correction,
+                })
             }
             _ => None,
         };

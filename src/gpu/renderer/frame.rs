@@ -126,7 +126,7 @@ impl GpuRenderer {
         let hw_filter = vol.filterable && (!self.shader_filtering || vol.normals_in_volume);
         let layout = Layout { hw_filter, normals_in_volume: vol.normals_in_volume };
         let skip = self.skip_empty && self.occupancy.empty_fraction >= SKIP_MIN_EMPTY;
-        let variant = Variant::new(shading, light.kind, cfg, layout, skip);
+        let mut variant = Variant::new(shading, light.kind, cfg, layout, skip);
         let shadow_rays = cfg.model == Model::SingleScattering && variant.shading != Shading::AmbientOnly;
         let pixels = self.width as u64 * self.height as u64;
         let points = if cfg.unbiased {
@@ -134,6 +134,8 @@ impl GpuRenderer {
         } else {
             1.0
         };
+        // Cells can only lower a rate above the least one (a point a step).
+        variant.cell_rates = variant.unbiased && points > 1.001;
         let passes = plan(cfg, &vol.bounds, camera.position, shadow_rays, points, pixels, self.pass_samples())?;
         if passes.per_pixel_state && self.frame.ray_state.pixels < pixels {
             let limit = self.ctx.max_storage_bytes();

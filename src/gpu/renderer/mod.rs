@@ -4,7 +4,7 @@
 //! uniform block and nothing else.
 
 use super::context::{GpuContext, ProcessSlot};
-use crate::config::RenderConfig;
+use crate::config::{OpacityCorrection, RenderConfig};
 use crate::error::Error;
 use crate::model::Model;
 use crate::occupancy::{segment_ranges, SegmentRanges};
@@ -343,7 +343,9 @@ impl GpuRenderer {
             return Ok(());
         }
         let occ = match source {
-            OccSource::Lut { ranges, .. } => vol.grid.for_segments(ranges).occupancy(&self.tables.rows, self.value_map),
+            OccSource::Lut { ranges, form, .. } => {
+                vol.grid.for_segments(ranges).majorants(&self.tables.rows, self.value_map, form)
+            }
             OccSource::Below(bits) => vol.grid.occupancy_reaching(f64::from_bits(bits), self.value_map),
         };
         self.pending_upload += self.occupancy.upload(&self.ctx, &vol.grid, &occ, source)?;
@@ -356,28 +358,29 @@ impl GpuRenderer {
     /// that a pre-integrated session builds one grid per table change, not
     /// two; a new volume starts from the cells' own ranges.
     fn table_source(&self, last: Option<OccSource>) -> OccSource {
-        let ranges = match last {
-            Some(OccSource::Lut { ranges, .. }) => ranges,
-            _ => SegmentRanges::Plain,
+        let (ranges, form) = match last {
+            Some(OccSource::Lut { ranges, form, .. }) => (ranges, form),
+            _ => (SegmentRanges::Plain, OpacityCorrection::Exponential),
         };
-        OccSource::Lut { version: self.tables.version, ranges }
+        OccSource::Lut { version: self.tables.version, ranges, form }
     }
 
     /// What decides a frame's empty cells: the iso value, or the table over
-    /// each cell's range; for pre-integrated frames, over the range of the
-    /// segments centred in the cell (a leap is decided at midpoints).
+    /// each cell's range; for pre-integrated and unbiased frames, over the
+    /// range of the segments centred in the cell (a leap is decided at
+    /// midpoints; a segment's points are drawn at its midpoint cell's rate).
     pub(super) fn occupancy_source(&self, cfg: &RenderConfig) -> OccSource {
         if cfg.model == Model::Isosurface {
             return OccSource::Below(cfg.iso_value.to_bits());
         }
         let ranges = match &self.volume {
-            Some(vol) if cfg.pre_integrates() => {
+            Some(vol) if cfg.pre_integrates() || cfg.unbiased => {
                 let extent = vol.bounds.extent().to_array();
                 segment_ranges(cfg.step_size, std::array::from_fn(|a| extent[a] / vol.dims[a] as f64))
             }
             _ => SegmentRanges::Plain,
         };
-        OccSource::Lut { version: self.tables.version, ranges }
+        OccSource::Lut { version: self.tables.version, ranges, form: cfg.opacity_correction }
     }
 
     /// Fraction of occupancy cells the current transfer function leaves empty.
