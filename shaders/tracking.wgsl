@@ -2,11 +2,10 @@
 // Jarosz 2014) on the segment grid. Each segment holds the points of a
 // Poisson process whose rate is a majorant of the extinction over the
 // segment, and each point is composited like a segment of opacity
-// sigma / rate. For a
-// Poisson process E[prod (1 - sigma(x_k) / rate)] = exp(-integral of sigma),
-// and the emitted colour sums the same way, so a frame's expectation is the
-// exact integral whatever the step; the step only sets the least density of
-// points (one a step on average). Averaged frames converge to the integral,
+// sigma / rate. For a Poisson process E[prod (1 - sigma(x_k) / rate)] =
+// exp(-integral of sigma), and the emitted colour sums the same way, so a
+// frame's expectation is the exact integral whatever the step; the step
+// only sets the least density of points (one a step on average). Averaged frames converge to the integral,
 // where jittered midpoint frames converge to the mean over grid offsets,
 // which compositing (not linear in the offset) keeps away from it.
 // A segment's points come from a stream seeded by the pixel, the segment and

@@ -105,8 +105,10 @@ impl Preset {
 
 pub const DEFAULT_REFERENCE_STEP: f64 = 0.01;
 /// The densest Poisson process an unbiased frame uses, in points per step:
-/// it bounds the work per step (and so per pass), and biases only media
-/// whose optical depth over a step exceeds it (e^-16 = 1e-7 transmitted).
+/// it bounds the work per step (and so per pass). Only media whose optical
+/// depth over a step exceeds it (transmitting e^-16 = 1e-7) are biased:
+/// they turn opaque at their first point, a sixteenth of a step in on
+/// average, instead of at their boundary.
 pub const MAX_POINTS_PER_STEP: f64 = 16.0;
 /// pyvr's estimate divides the unit cube's diagonal (sqrt 3, written 1.732) by the step.
 const UNIT_CUBE_DIAGONAL: f64 = 1.732;

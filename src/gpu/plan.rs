@@ -42,8 +42,9 @@ pub struct PassPlan {
 /// The passes for `pixels` rays from `camera` through `bounds` at `cfg`.
 /// `shadow_rays`: single scattering with a light, where every step may march
 /// a shadow ray across the box. `points_per_step`: the mean number of
-/// samples a step takes (1, or an unbiased frame's Poisson points). A frame of more than twice `pass_samples`
-/// samples is split into passes of about `pass_samples` each, so that the
+/// samples a step takes (1, or an unbiased frame's Poisson points at its
+/// largest rate). A frame of more than twice `pass_samples` samples is
+/// split into passes of about `pass_samples` each, so that the
 /// caller regains control (to stop on Ctrl-C) every pass; shorter frames
 /// keep one pass. Samples here are planned ones (`planned_samples`), an
 /// upper bound on those the rays take.
