@@ -20,7 +20,6 @@ every order and model it applies to; opacity 3% too high (mean error 0.1-
 0.15 levels here) is within the tests' noise."""
 
 import pickle
-import warnings
 
 import numpy as np
 import pytest
