@@ -159,6 +159,31 @@ def test_a_throttled_move_is_rendered_a_moment_later(ui):
     assert not np.array_equal(shown(ui), first) and not ui.state.needs_render
 
 
+def test_a_still_view_refines_to_the_accumulated_mean(volume, tmp_path, monkeypatch):
+    monkeypatch.setattr(cache, "CACHE_DIR", tmp_path / "cache")
+    monkeypatch.chdir(tmp_path)
+    ui = InteractiveVolumeRenderer(volume, width=SIZE, height=SIZE, refine_frames=5)
+    ui._min_render_interval = 0.0
+    ui._build_figure()
+    try:
+        full = shown(ui).copy()
+        assert np.array_equal(full, ui.renderer.render(origin="upper"))
+        # What the timer calls: frames 1-3 keep the full frame, 4 and 5 show
+        # the running mean of unbiased frames, then it stops.
+        for k in range(1, 6):
+            ui._refine_step()
+            expected = full if k < 4 else ui.renderer.render(origin="upper", accumulate=k)
+            assert np.array_equal(shown(ui), expected), k
+        assert ui.refinement.count == 5 and not ui.refinement.pending
+        # A drag stops it; the full frame on release starts it over.
+        drag_image(ui, 0.1)
+        assert ui.refinement.count == 0 and ui.refinement.pending
+    finally:
+        matplotlib.pyplot.close(ui.fig)
+    with pytest.raises(ValueError, match="refine_frames"):
+        InteractiveVolumeRenderer(volume, width=8, height=8, refine_frames=-2)
+
+
 def test_auto_quality_key_keeps_full_frames_while_dragging(ui):
     key(ui, "q")
     assert not ui.state.auto_quality_enabled

@@ -134,22 +134,22 @@ def test_view_refines_while_it_stands_still(renderer):
         assert np.array_equal(img, renderer.render(origin="upper", accumulate=k)), k
     assert not np.array_equal(shown[-1], first)
     frames_before = renderer.counters()["frames"]
-    assert np.array_equal(view.draw(), shown[-1]) and view.refined == 6
+    assert np.array_equal(view.draw(), shown[-1]) and view.refinement.count == 6
     assert renderer.counters()["frames"] == frames_before
     # A change of the scene starts over from a full frame.
     renderer.set_transfer_functions(ColorTransferFunction.from_colormap("viridis"),
                                     OpacityTransferFunction.peaks([0.5], opacity=0.5, eps=0.03))
     again = view.draw()
-    assert view.refined == 0 and np.array_equal(again, renderer.render(origin="upper"))
+    assert view.refinement.count == 0 and np.array_equal(again, renderer.render(origin="upper"))
     # So does a drag.
     for _ in range(4):
         view.draw()
-    assert view.refined == 4
+    assert view.refinement.count == 4
     view.handle_event({"type": "pointer_down", "x": 40, "y": 40, "button": 1})
     view.handle_event({"type": "pointer_move", "x": 50, "y": 40, "button": 1})
     view.draw()
     view.handle_event({"type": "pointer_up", "x": 50, "y": 40, "button": 1})
     view.draw()
-    assert view.refined == 0
+    assert view.refinement.count == 0
     with pytest.raises(ValueError, match="refine_frames"):
         VolumeView(renderer, refine_frames=-1)

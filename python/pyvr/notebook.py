@@ -23,7 +23,6 @@ itself; ``view.draw()`` renders a frame now and ``view.snapshot()`` shows it.
 A plain renderer also shows itself as a still image (``_repr_png_``).
 """
 
-import pickle
 import time
 from collections import deque
 from typing import Optional
@@ -31,7 +30,6 @@ from typing import Optional
 import numpy as np
 
 from ._extras import require
-from ._numbers import check_count
 
 require("jupyter_rfb", "notebook", "pyvr.notebook")
 
@@ -39,12 +37,10 @@ from jupyter_rfb import RemoteFrameBuffer  # noqa: E402
 
 from .camera import Camera, CameraController  # noqa: E402
 from .interaction import DragQuality  # noqa: E402
-from .renderer import UNBIASED_MODELS, VolumeRenderer, output_image  # noqa: E402
+from .refinement import Refinement  # noqa: E402
+from .renderer import VolumeRenderer  # noqa: E402
 
 SCROLL_SETTLE_SECONDS = 0.5
-# Refinement shows its running mean from this many frames on: four unbiased
-# frames have half the noise of one.
-REFINE_SHOW_FROM = 4
 
 
 class VolumeView(RemoteFrameBuffer):
@@ -66,7 +62,7 @@ class VolumeView(RemoteFrameBuffer):
 
     def __init__(self, renderer: VolumeRenderer, camera: Optional[Camera] = None, *, target_fps: float = 10.0,
                  refine_frames: int = 0, **kwargs):
-        refine_frames = check_count("refine_frames", refine_frames, low=0, high=1 << 16)
+        refinement = Refinement(renderer, refine_frames)  # checks the count before the widget exists
         kwargs.setdefault("css_width", f"{renderer.width}px")
         kwargs.setdefault("css_height", f"{renderer.height}px")
         super().__init__(**kwargs)
@@ -84,11 +80,7 @@ class VolumeView(RemoteFrameBuffer):
         # Event-to-pixels seconds of the latest frames while interacting and after.
         self.drag_latencies: deque = deque(maxlen=200)
         self.release_latencies: deque = deque(maxlen=200)
-        self.refine_frames = refine_frames
-        # The running sum of unbiased frames, how many, and the scene they show.
-        self._refine_sum: Optional[np.ndarray] = None
-        self.refined = 0
-        self._refine_key = None
+        self.refinement = refinement
         self._last_frame: Optional[np.ndarray] = None
 
     @property
@@ -157,34 +149,6 @@ class VolumeView(RemoteFrameBuffer):
             self._end()
 
     # -- frames ------------------------------------------------------------
-    def _scene_key(self) -> bytes:
-        """What a refined image depends on: a change restarts refinement."""
-        r = self.renderer
-        counters = r.counters()
-        # Pickled: it compares every config field and arrays by value.
-        return pickle.dumps((r._frame_camera(), r._light_args, r.get_config(), r.value_range, r.crop_box,
-                             counters["lut_uploads"], counters["volume_uploads"], r.width, r.height))
-
-    def _can_refine(self) -> bool:
-        cfg = self.renderer.get_config()
-        return self.refine_frames > 0 and cfg.model in UNBIASED_MODELS and not cfg.pre_integrated
-
-    def _refine(self) -> Optional[np.ndarray]:
-        """One more unbiased frame into the running mean: the mean to show,
-        or None while too few frames are in it."""
-        cfg = self.renderer.get_config()
-        seed = (cfg.jitter_seed + self.refined) % 2**32
-        frame = self.renderer.render(dtype=np.float32, premultiplied=True,
-                                     config=cfg.replace(unbiased=True, jitter_seed=seed))
-        self._refine_sum = frame.astype(np.float64) if self._refine_sum is None else self._refine_sum + frame
-        self.refined += 1
-        if self.refined < self.refine_frames:
-            self.request_draw()
-        if self.refined < min(REFINE_SHOW_FROM, self.refine_frames):
-            return None
-        mean = (self._refine_sum / self.refined).astype(np.float32)
-        return output_image(mean, np.dtype(np.uint8), False, None, "upper")
-
     def get_frame(self) -> Optional[np.ndarray]:
         """The frame for the view's camera: (H, W, 4) uint8, top row first,
         smaller while the user interacts (the browser stretches it); while
@@ -192,17 +156,19 @@ class VolumeView(RemoteFrameBuffer):
         self.renderer.set_camera(self.controller.params)
         cheap = self._interacting
         if cheap:
-            self._refine_key = None
+            self.refinement.stop()
             img = self.drag_quality.render_drag(origin="upper")
-        elif self._can_refine() and self._refine_key is not None and self._refine_key == self._scene_key():
-            if self.refined >= self.refine_frames:
-                return None
-            return self._refine()
+        elif self.refinement.pending:
+            img = self.refinement.step()
+            if self.refinement.pending:
+                self.request_draw()
+            return img
+        elif self.refinement.finished:
+            return None  # refined as far as asked: nothing new to show
         else:
             img = self.drag_quality.render_full(origin="upper")
-            if self._can_refine():
-                self._refine_key = self._scene_key()
-                self._refine_sum, self.refined = None, 0
+            self.refinement.restart()
+            if self.refinement.pending:
                 self.request_draw()
         if self._event_time is not None:
             latency = time.perf_counter() - self._event_time

@@ -11,10 +11,12 @@ from typing import Optional
 import matplotlib.pyplot as plt
 import numpy as np
 
+from .._numbers import check_count
 from ..camera import Camera, CameraController
 from ..config import RenderConfig
 from ..interaction import DragQuality
 from ..lighting import Light
+from ..refinement import Refinement
 from ..renderer import VolumeRenderer
 from ..transferfunctions import ColorTransferFunction, OpacityTransferFunction
 from ..transferfunctions.value_range import storage_unit
@@ -65,12 +67,19 @@ class InteractiveVolumeRenderer:
     frames are rendered cheaper (``DragQuality``: coarser step, smaller
     frame) to keep ``target_fps``; full quality returns on release, or
     0.5 s after the last scroll. ``q`` turns this off.
+
+    ``refine_frames=n`` (default 0, off) refines the view while it stands
+    still: after the full frame, unbiased frames are rendered one per timer
+    tick and, from the fourth on, their running mean is shown
+    (``pyvr.refinement``); any event starts over.
     """
 
     def __init__(self, volume: Volume, width: int = 512, height: int = 512, config: Optional[RenderConfig] = None,
-                 camera: Optional[Camera] = None, light: Optional[Light] = None, *, target_fps: float = 10.0):
+                 camera: Optional[Camera] = None, light: Optional[Light] = None, *, target_fps: float = 10.0,
+                 refine_frames: int = 0):
         if not isinstance(volume, Volume):
             raise TypeError(f"Expected Volume instance, got {type(volume)}")
+        check_count("refine_frames", refine_frames, low=0, high=1 << 16)  # before the volume is loaded
         # The default is pyvr's (fast), with rays that reach the far side.
         config = _crossing(RenderConfig.fast(), volume) if config is None else config
         camera = Camera.isometric_view(distance=3.0) if camera is None else camera
@@ -86,6 +95,8 @@ class InteractiveVolumeRenderer:
         self.state.current_preset_name = _detect_preset_name(config, volume)
         self.state.light_linked_to_camera = light.is_linked
         self.drag_quality = DragQuality(self.renderer, target_fps=target_fps)
+        self.refinement = Refinement(self.renderer, refine_frames)
+        self._refine_timer = None
         self.histogram_bin_edges = None
         self.histogram_log_counts = None
         self.image_display: Optional[ImageDisplay] = None
@@ -167,10 +178,13 @@ class InteractiveVolumeRenderer:
             return
         self.image_display.update_image(img)
         if cheap:
+            self.refinement.stop()
             self._blit_image()
         else:
             self._update_info()
             self.fig.canvas.draw_idle()
+            self.refinement.restart()
+            self._refine_later()
         if self._event_time is not None:
             latency = time.perf_counter() - self._event_time
             if cheap:
@@ -189,6 +203,33 @@ class InteractiveVolumeRenderer:
             self._pending_timer.add_callback(self._render_pending)
         self._pending_timer.stop()
         self._pending_timer.start()
+
+    def _refine_later(self) -> None:
+        if self.fig is None or not self.refinement.pending:
+            return
+        if self._refine_timer is None:
+            # Between frames the event loop runs: any event is handled first.
+            self._refine_timer = self.fig.canvas.new_timer(interval=1)
+            self._refine_timer.single_shot = True
+            self._refine_timer.add_callback(self._refine_step)
+        self._refine_timer.stop()
+        self._refine_timer.start()
+
+    def _refine_step(self) -> None:
+        """One more unbiased frame into the still view's running mean."""
+        if self._interacting or not self.refinement.pending:
+            return
+        try:
+            img = self.refinement.step()
+        except Exception as e:  # the window must survive any one bad frame
+            warnings.warn(f"Rendering error: {e}", RuntimeWarning, stacklevel=2)
+            self.refinement.stop()
+            return
+        if img is not None and self.image_display is not None:
+            self._cached_image = img
+            self.image_display.update_image(img)
+            self.fig.canvas.draw_idle()
+        self._refine_later()
 
     def _render_pending(self) -> None:
         if self.state.needs_render:

@@ -1,0 +1,84 @@
+"""Progressive refinement of a view that stands still.
+
+Both interactive views (the notebook widget and the matplotlib interface)
+can keep rendering after the full frame while nothing moves: unbiased frames
+(``RenderConfig.unbiased``), one per step, whose running mean converges to
+the exact integral and equals ``renderer.render(accumulate=k)`` after k
+steps. A change of camera, light, config, transfer function, value range,
+crop box, volume or size starts over.
+"""
+
+import pickle
+from typing import Optional
+
+import numpy as np
+
+from ._numbers import check_count
+from .renderer import UNBIASED_MODELS, output_image
+
+# The running mean is shown from this many frames on: four unbiased frames
+# have half the noise of one (the full frame stays on show until then).
+SHOW_FROM = 4
+
+
+class Refinement:
+    """The running mean of up to ``frames`` unbiased frames of ``renderer``'s
+    current scene (0: off)."""
+
+    def __init__(self, renderer, frames: int = 0):
+        self.renderer = renderer
+        self.frames = check_count("refine_frames", frames, low=0, high=1 << 16)
+        self.count = 0
+        self._sum: Optional[np.ndarray] = None
+        self._key: Optional[bytes] = None
+
+    def _scene_key(self) -> bytes:
+        r = self.renderer
+        counters = r.counters()
+        # Pickled: every config field and every array compares by value.
+        return pickle.dumps((r._frame_camera(), r._light_args, r.get_config(), r.value_range, r.crop_box,
+                             counters["lut_uploads"], counters["volume_uploads"], r.width, r.height))
+
+    def applies(self) -> bool:
+        """Whether the renderer's config has unbiased frames to refine with."""
+        if self.frames == 0:
+            return False
+        cfg = self.renderer.get_config()
+        return cfg.model in UNBIASED_MODELS and not cfg.pre_integrated
+
+    def restart(self) -> None:
+        """Start over for the scene as it is now (after its full frame)."""
+        self._key = self._scene_key() if self.applies() else None
+        self._sum, self.count = None, 0
+
+    def stop(self) -> None:
+        """The view moves: nothing to refine until the next restart."""
+        self._key = None
+
+    def _current(self) -> bool:
+        return self._key is not None and self.applies() and self._key == self._scene_key()
+
+    @property
+    def pending(self) -> bool:
+        """Whether another step would add a frame to the current scene's mean."""
+        return self.count < self.frames and self._current()
+
+    @property
+    def finished(self) -> bool:
+        """Whether the current scene's mean holds every frame asked for."""
+        return 0 < self.frames <= self.count and self._current()
+
+    def step(self) -> Optional[np.ndarray]:
+        """One more unbiased frame into the mean: the (H, W, 4) uint8 image
+        to show, top row first, or None while fewer than SHOW_FROM frames
+        (or all of them, when fewer are asked for) are in it."""
+        cfg = self.renderer.get_config()
+        seed = (cfg.jitter_seed + self.count) % 2**32
+        frame = self.renderer.render(dtype=np.float32, premultiplied=True,
+                                     config=cfg.replace(unbiased=True, jitter_seed=seed))
+        self._sum = frame.astype(np.float64) if self._sum is None else self._sum + frame
+        self.count += 1
+        if self.count < min(SHOW_FROM, self.frames):
+            return None
+        mean = (self._sum / self.count).astype(np.float32)
+        return output_image(mean, np.dtype(np.uint8), False, None, "upper")
