@@ -197,23 +197,24 @@ class InteractiveVolumeRenderer:
     def _render_later(self) -> None:
         if self.fig is None:
             return
-        if self._pending_timer is None:
-            self._pending_timer = self.fig.canvas.new_timer(interval=max(1, int(self._min_render_interval * 1000)))
-            self._pending_timer.single_shot = True
-            self._pending_timer.add_callback(self._render_pending)
-        self._pending_timer.stop()
-        self._pending_timer.start()
+        self._restart_timer("_pending_timer", max(1, int(self._min_render_interval * 1000)), self._render_pending)
 
     def _refine_later(self) -> None:
         if self.fig is None or not self.refinement.pending:
             return
-        if self._refine_timer is None:
-            # Between frames the event loop runs: any event is handled first.
-            self._refine_timer = self.fig.canvas.new_timer(interval=1)
-            self._refine_timer.single_shot = True
-            self._refine_timer.add_callback(self._refine_step)
-        self._refine_timer.stop()
-        self._refine_timer.start()
+        # Between frames the event loop runs: any event is handled first.
+        self._restart_timer("_refine_timer", 1, self._refine_step)
+
+    def _restart_timer(self, name: str, interval_ms: int, callback) -> None:
+        """(Re)start the single-shot timer kept in attribute ``name``."""
+        timer = getattr(self, name)
+        if timer is None:
+            timer = self.fig.canvas.new_timer(interval=interval_ms)
+            timer.single_shot = True
+            timer.add_callback(callback)
+            setattr(self, name, timer)
+        timer.stop()
+        timer.start()
 
     def _refine_step(self) -> None:
         """One more unbiased frame into the still view's running mean."""
@@ -382,12 +383,7 @@ class InteractiveVolumeRenderer:
         self.camera_controller.zoom(0.9 if event.step > 0 else 1.1)
         self._begin_interaction()
         self._update_display()
-        if self._scroll_timer is None:
-            self._scroll_timer = self.fig.canvas.new_timer(interval=500)
-            self._scroll_timer.single_shot = True
-            self._scroll_timer.add_callback(self._on_scroll_end)
-        self._scroll_timer.stop()
-        self._scroll_timer.start()
+        self._restart_timer("_scroll_timer", 500, self._on_scroll_end)
 
     def _on_scroll_end(self) -> None:
         if not (self.state.is_dragging_camera or self.state.is_dragging_control_point):
