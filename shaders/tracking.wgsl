@@ -5,22 +5,19 @@
 // sigma / rate. For a Poisson process E[prod (1 - sigma(x_k) / rate)] =
 // exp(-integral of sigma), and the emitted colour sums the same way, so a
 // frame's expectation is the exact integral whatever the step; the step
-// only sets the least density of points (one a step on average). Averaged frames converge to the integral,
-// where jittered midpoint frames converge to the mean over grid offsets,
-// which compositing (not linear in the offset) keeps away from it.
-// A segment's points come from a stream seeded by the pixel, the segment and
-// the seed, so passes, bricks and leaps all see the same points; points in
-// an empty cell add nothing, so leaping over them changes no estimate.
-// Early termination becomes Russian roulette, which keeps the expectation.
+// only sets the least density of points (one a step on average).
+// Averaged frames converge to the integral, where jittered midpoint frames
+// converge to the mean over grid offsets, which compositing (not linear in
+// the offset) keeps away from it. The points of a block of segments come
+// from a stream seeded by the pixel, the block and the seed, so passes,
+// bricks and leaps all see the same points; points in an empty cell add
+// nothing, so leaping over them changes no estimate. Early termination
+// becomes Russian roulette, which keeps the expectation.
 
 // Uniform in (0, 1); the stream advances.
 fn stream_uniform(state: ptr<function, u32>) -> f32 {
     *state = *state * 747796405u + 2891336453u;
     return (f32(hash32(*state) >> 8u) + 0.5) * (1.0 / 16777216.0);
-}
-
-fn segment_stream(r: Ray, si: u32) -> u32 {
-    return hash32(r.idx ^ hash32(si ^ hash32(P.jitter_seed ^ 0x68e31da4u)));
 }
 
 // The distance from one point of the process to the next.
@@ -72,50 +69,78 @@ fn tracked_point(texel: vec4<f32>, rate: f32) -> Segment {
     return g;
 }
 
-// The segment holding ray offset t, as a march index at or past i.
-fn march_index_at(r: Ray, i: u32, t: f32) -> u32 {
-    let k = u32(clamp(floor(t / P.step_size - r.shift), 0.0, f32(r.n) - 1.0));
-    if (BACK_TO_FRONT) {
-        return max(r.n - 1u - k, i);
-    }
-    return max(k, i);
+// Segments per stream. A stream whose block of segments ends without
+// another point still costs a pass of the loop, so blocks of 8 take an
+// eighth of those; segments with their own rate (CELL_RATES) keep one each.
+fn block_size() -> u32 {
+    return select(8u, 1u, CELL_RATES);
 }
 
-// Emission–absorption, absorption and emission from Poisson points. One
-// fetch per pass of the outer loop; the inner loop moves on to the next
-// point (past exhausted segments and points in a leapt cell) without one.
+fn block_stream(r: Ray, k: u32) -> u32 {
+    return hash32(r.idx ^ hash32(k ^ hash32(P.jitter_seed ^ 0x68e31da4u)));
+}
+
+// Block k's (start offset, length): segments [kB, min((k + 1)B, n)).
+fn block_span(r: Ray, k: u32) -> vec2<f32> {
+    let first = span(r, k * block_size());
+    let last = span(r, min((k + 1u) * block_size(), r.n) - 1u);
+    return vec2<f32>(first.x, last.x + last.y - first.x);
+}
+
+// The block holding ray offset t.
+fn block_at(r: Ray, t: f32) -> u32 {
+    return u32(clamp(floor(t / P.step_size - r.shift), 0.0, f32(r.n) - 1.0)) / block_size();
+}
+
+// Emission–absorption, absorption and emission from Poisson points. Each
+// block of segments has its stream (a hash of pixel, block and seed), so
+// passes and bricks, which march windows of whole segments, and leaps all
+// see the same points: a window takes its blocks' points that lie in it.
+// One fetch per pass of the outer loop; the inner loop moves on to the next
+// point (past exhausted blocks, and points before the window or in a leapt
+// cell) without one.
 fn march_tracking(r: Ray) {
     var s = start_integration(r);
     var stopped = false;
     var taken = 0u;
+    if (r.begin >= r.end) {
+        end_integration(r, &s, stopped, taken);
+        return;
+    }
     var dir = r.d;
+    // The window's segments in grid order and its offsets [w_lo, w_hi).
+    var si_lo = r.begin;
+    var si_hi = r.end - 1u;
     if (BACK_TO_FRONT) {
         dir = -r.d;
+        si_lo = r.n - r.end;
+        si_hi = r.n - 1u - r.begin;
     }
-    // The current segment (march index i, grid index si, span sp), its
-    // stream, its next point at distance u from the segment's start in the
-    // march direction, and the distance before which its points are leapt.
-    var i = r.begin;
-    var si = 0u;
-    var sp = vec2<f32>(0.0);
+    let w_lo = span(r, si_lo).x;
+    let hi_span = span(r, si_hi);
+    let w_hi = hi_span.x + hi_span.y;
+    // The current block, its span, stream and rate; its next point at
+    // distance u from the block's start in the march direction; points
+    // before offset `skip_to` (in the march direction) are passed.
+    var k = si_lo / block_size();
+    var skip_to = w_lo;
+    if (BACK_TO_FRONT) {
+        k = si_hi / block_size();
+        skip_to = w_hi;
+    }
+    var bsp = vec2<f32>(0.0);
     var state = 0u;
     var rate = 0.0;
     var u = 0.0;
-    var skip_below = 0.0;
+    var at = 0.0;
     var entered = false;
+    var done = false;
     loop {
         loop {
-            if (i >= r.end) {
-                break;
-            }
             if (!entered) {
-                si = i;
-                if (BACK_TO_FRONT) {
-                    si = r.n - 1u - i;
-                }
-                sp = span(r, si);
-                state = segment_stream(r, si);
-                rate = segment_rate(r, sp);
+                bsp = block_span(r, k);
+                state = block_stream(r, k);
+                rate = segment_rate(r, bsp);
                 // No points in an empty segment: it is passed at once.
                 u = 3.0e38;
                 if (rate > 0.0) {
@@ -123,23 +148,37 @@ fn march_tracking(r: Ray) {
                 }
                 entered = true;
             }
-            if (u >= sp.y) {
-                i += 1u;
+            if (u >= bsp.y) {
+                // The block is exhausted: the next one, unless past the window.
+                if (BACK_TO_FRONT) {
+                    done = k * block_size() <= si_lo;
+                    k -= select(1u, 0u, done);
+                } else {
+                    done = (k + 1u) * block_size() > si_hi;
+                    k += 1u;
+                }
+                if (done) {
+                    break;
+                }
                 entered = false;
-                skip_below = 0.0;
                 continue;
             }
-            if (u >= skip_below) {
+            at = bsp.x + u;
+            if (BACK_TO_FRONT) {
+                at = bsp.x + bsp.y - u;
+            }
+            let past = select(at >= w_hi, at < w_lo, BACK_TO_FRONT);
+            if (past) {
+                done = true;
+                break;
+            }
+            if (select(at >= skip_to, at < skip_to, BACK_TO_FRONT)) {
                 break;
             }
             u += next_gap(&state, rate);
         }
-        if (i >= r.end) {
+        if (done) {
             break;
-        }
-        var at = sp.x + u;
-        if (BACK_TO_FRONT) {
-            at = sp.x + sp.y - u;
         }
         let p = point_at(r, at);
         let tc = tex_of(p);
@@ -152,24 +191,15 @@ fn march_tracking(r: Ray) {
                 // Resume at the cell's far side (a thousandth of a step early:
                 // rounding must never pass over an occupied point).
                 let back = 1e-3 * P.step_size;
-                var resume = at + exit - back;
+                skip_to = at + exit - back;
+                var next = max(block_at(r, skip_to), k);
                 if (BACK_TO_FRONT) {
-                    resume = at - exit + back;
+                    skip_to = at - exit + back;
+                    next = min(block_at(r, skip_to), k);
                 }
-                let k = march_index_at(r, i, resume);
-                if (k != i) {
-                    i = k;
+                if (next != k) {
+                    k = next;
                     entered = false;
-                    if (i < r.end) {
-                        var ks = i;
-                        if (BACK_TO_FRONT) {
-                            ks = r.n - 1u - i;
-                        }
-                        let ksp = span(r, ks);
-                        skip_below = select(resume - ksp.x, ksp.x + ksp.y - resume, BACK_TO_FRONT);
-                    }
-                } else {
-                    skip_below = select(resume - sp.x, sp.x + sp.y - resume, BACK_TO_FRONT);
                 }
                 continue;
             }
@@ -177,9 +207,13 @@ fn march_tracking(r: Ray) {
         let add = lit(g, p, r.d, &taken);
         if (composite(&s, g.x, add, taken)) {
             // Russian roulette below transmittance q: on with probability
-            // T / q at weight q, else stopped (T = 0).
+            // T / q at weight q, else stopped (T = 0). Its number comes from
+            // the point, not the block's stream: a window that starts inside
+            // the block must draw the same points after it.
             let q = 1.0 - P.threshold;
-            if (s.trans > 0.0 && q > 0.0 && stream_uniform(&state) * q < s.trans) {
+            let roll = hash32(bitcast<u32>(at) ^ hash32(r.idx ^ hash32(P.jitter_seed ^ 0x2545f491u)));
+            let xi = (f32(roll >> 8u) + 0.5) * (1.0 / 16777216.0);
+            if (s.trans > 0.0 && q > 0.0 && xi * q < s.trans) {
                 s.color += s.color_b;
                 s.color_b = vec3<f32>(0.0);
                 s.tau = -log(q);

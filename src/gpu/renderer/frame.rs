@@ -100,6 +100,21 @@ impl GpuRenderer {
         max_extinction(&self.tables.rows, cfg.opacity_correction)
     }
 
+    /// Samples a step takes at most on average: 1, or an unbiased frame's
+    /// Poisson points at its largest rate.
+    fn points_per_step(&self, cfg: &RenderConfig) -> f64 {
+        if !cfg.unbiased {
+            return 1.0;
+        }
+        cfg.tracking_rate(self.max_extinction(cfg) / cfg.reference_step_size) * cfg.step_size
+    }
+
+    /// Whether an unbiased frame's segments take their cells' rates: cells
+    /// can only lower a rate above the least one (a point a step).
+    pub(super) fn cell_rates(&self, cfg: &RenderConfig) -> bool {
+        self.points_per_step(cfg) > 1.001
+    }
+
     fn params(&self, camera: &Camera, light: &Light, cfg: &RenderConfig) -> Result<Params, Error> {
         let vol = self.volume.as_ref().expect("checked by check_ready");
         let basis = camera.basis(self.width, self.height)?;
@@ -129,13 +144,8 @@ impl GpuRenderer {
         let mut variant = Variant::new(shading, light.kind, cfg, layout, skip);
         let shadow_rays = cfg.model == Model::SingleScattering && variant.shading != Shading::AmbientOnly;
         let pixels = self.width as u64 * self.height as u64;
-        let points = if cfg.unbiased {
-            cfg.tracking_rate(self.max_extinction(cfg) / cfg.reference_step_size) * cfg.step_size
-        } else {
-            1.0
-        };
-        // Cells can only lower a rate above the least one (a point a step).
-        variant.cell_rates = variant.unbiased && points > 1.001;
+        let points = self.points_per_step(cfg);
+        variant.cell_rates = variant.unbiased && self.cell_rates(cfg);
         let passes = plan(cfg, &vol.bounds, camera.position, shadow_rays, points, pixels, self.pass_samples())?;
         if passes.per_pixel_state && self.frame.ray_state.pixels < pixels {
             let limit = self.ctx.max_storage_bytes();

@@ -366,15 +366,17 @@ impl GpuRenderer {
     }
 
     /// What decides a frame's empty cells: the iso value, or the table over
-    /// each cell's range; for pre-integrated and unbiased frames, over the
-    /// range of the segments centred in the cell (a leap is decided at
-    /// midpoints; a segment's points are drawn at its midpoint cell's rate).
+    /// each cell's range; for pre-integrated frames and unbiased ones with
+    /// per-cell rates, over the range of the segments centred in the cell (a
+    /// leap is decided at midpoints; a segment's points are drawn at its
+    /// midpoint cell's rate). Unbiased leaps, decided at points, need only
+    /// the cell's own range.
     pub(super) fn occupancy_source(&self, cfg: &RenderConfig) -> OccSource {
         if cfg.model == Model::Isosurface {
             return OccSource::Below(cfg.iso_value.to_bits());
         }
         let ranges = match &self.volume {
-            Some(vol) if cfg.pre_integrates() || cfg.unbiased => {
+            Some(vol) if cfg.pre_integrates() || (cfg.unbiased && self.cell_rates(cfg)) => {
                 let extent = vol.bounds.extent().to_array();
                 segment_ranges(cfg.step_size, std::array::from_fn(|a| extent[a] / vol.dims[a] as f64))
             }
