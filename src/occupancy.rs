@@ -268,11 +268,6 @@ pub fn majorant_code(e: f64) -> u8 {
     if !(q <= 254.0) { 255 } else { q.max(1.0) as u8 }
 }
 
-/// The extinction per reference step a code stands for (255: unbounded).
-pub fn majorant_of(code: u8) -> f64 {
-    if code == 255 { f64::INFINITY } else { ((code as f64 - 128.0) / 16.0).exp2() }
-}
-
 /// The ranges holding every segment of length `step` (world units) centred
 /// in a cell, for voxels `spacing` apart along the numpy axes: its ends lie
 /// up to half a step from the midpoint (with a margin for the shader's f32
@@ -464,6 +459,12 @@ mod tests {
         g.min = vec![0.41, 0.0];
         g.max = vec![0.42, 0.0];
         assert_eq!(g.occupancy(&step, ValueMap::IDENTITY), vec![1, 0]);
+    }
+
+    /// The extinction per reference step a code stands for (255: unbounded),
+    /// as shaders/tracking.wgsl decodes it.
+    fn majorant_of(code: u8) -> f64 {
+        if code == 255 { f64::INFINITY } else { ((code as f64 - 128.0) / 16.0).exp2() }
     }
 
     #[test]
