@@ -8,6 +8,7 @@ mod colormaps_data;
 /// Evaluates an RGBA lookup table (entries at `m / (M - 1)`) at `v`, with
 /// linear interpolation between entries and clamping outside [0, 1]. This is
 /// the rule the shader applies; pyvr's GL lookup stretched it by M/(M-1).
+#[inline]
 pub fn eval_lut(lut: &[[f32; 4]], v: f64) -> [f64; 4] {
     let m = lut.len();
     if m == 0 {

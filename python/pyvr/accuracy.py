@@ -250,8 +250,13 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[in
 
     def pilot_image(h, pre=False):
         if (h, pre) not in images:
-            images[h, pre] = renderer.render(dtype=np.float32, premultiplied=True, size=size,
-                                             config=_exact(cfg, h, longest).replace(pre_integrated=pre))
+            # Early termination on at threshold 1 stops only rays whose
+            # transmittance rounds to 0 in f32 (below 3e-8: under 1e-5
+            # level behind them), so the pilots measure the step alone while
+            # running the shader variant the chosen config runs: its first
+            # frame then compiles nothing.
+            pilot_cfg = _exact(cfg, h, longest).replace(pre_integrated=pre, early_ray_termination=True)
+            images[h, pre] = renderer.render(dtype=np.float32, premultiplied=True, size=size, config=pilot_cfg)
         return images[h, pre]
 
     def error(h, pre):
