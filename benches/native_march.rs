@@ -456,7 +456,6 @@ fn main() {
         width: size,
         height: size,
         lut_size: lut.len() as u32,
-        occ_levels: 1,
         value_map: ValueMap::IDENTITY,
         clip: None,
         max_extinction: 0.1,

@@ -30,9 +30,7 @@ struct Params {
     pass_steps: u32,
     first_pass: u32,
     last_pass: u32,
-    // Mip levels of `occupancy` (passed in: textureNumLevels is not reliable
-    // on every driver).
-    occ_levels: u32,
+    pass_pad: u32,
     jitter_seed: u32,
     // The model's options: isosurface value, Henyey–Greenstein g, shadow
     // step, and the side of the pre-integration table.
@@ -86,8 +84,9 @@ struct Params {
 @group(0) @binding(BINDING_RAY_STATE) var<storage, read_write> ray_state: array<vec4<f32>>;
 // Per pixel: 1 once the ray is finished (written by every ray in the first pass).
 @group(0) @binding(BINDING_RAY_DONE) var<storage, read_write> ray_done: array<u32>;
-// 1 where a cell of CELL^3 voxels may be visible under the current transfer
-// function; mip level l holds the same for cells of (CELL * 2^l)^3 voxels.
+// Per cell of CELL^3 voxels: r is 0 where the current transfer function
+// leaves the cell empty (else its majorant code); g is its empty radius, the
+// Chebyshev distance in cells to the nearest cell that is not empty.
 @group(0) @binding(BINDING_OCCUPANCY) var occupancy: texture_3d<u32>;
 // Pre-integrated segments (src/preintegrate.rs): x = front value, y = back
 // value; rgb = premultiplied colour, a = optical depth of one full step.

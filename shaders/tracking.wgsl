@@ -39,8 +39,8 @@ fn segment_rate(r: Ray, sp: vec2<f32>) -> f32 {
     }
     let least = 1.0 / P.step_size;
     let u = tex_of(point_at(r, sp.x + 0.5 * sp.y)) * vec3<f32>(textureDimensions(volume));
-    let c0 = max(vec3<i32>(floor(u / CELL)), vec3<i32>(0));
-    let q = textureLoad(occupancy, level_cell(c0, 0u), 0).r;
+    let c0 = cell_of(u);
+    let q = textureLoad(occupancy, c0, 0).r;
     let cell = select(exp2((f32(q) - 128.0) / 16.0) * P.inv_ref, P.track_rate, q >= 255u || q == 0u);
     let rate = clamp(cell, least, P.track_rate);
     return select(rate, 0.0, SKIP_EMPTY && q == 0u);

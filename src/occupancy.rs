@@ -1,5 +1,6 @@
 //! Empty-space skipping: a coarse min/max grid over the volume (built once
-//! per volume) and, per transfer function, which cells can be non-empty.
+//! per volume) and, per transfer function, which cells can be non-empty and
+//! how far each empty cell is from one that is not (`empty_radius`).
 //!
 //! A cell covers BLOCK^3 voxels; its range includes a one-voxel apron, since
 //! trilinear interpolation anywhere inside the cell reads the neighbours. A
@@ -288,33 +289,58 @@ pub fn segment_ranges(step: f64, spacing: [f64; 3]) -> SegmentRanges {
     }))
 }
 
-/// Coarser levels of an occupancy grid for hierarchical skipping: level `l`
-/// has `max(1, d >> l)` cells per axis (a GPU mip chain's sizes); a cell is
-/// occupied if any level-0 cell under it is. The last cell along an axis also
-/// covers the remainder when `d` is not a multiple of `2^l`, so every level-0
-/// cell has a parent that knows it. Returns up to `levels` levels, level 0
-/// first, each with its dims.
-pub fn pyramid(occ: &[u8], dims: [usize; 3], levels: usize) -> Vec<(Vec<u8>, [usize; 3])> {
-    let mut out = vec![(occ.to_vec(), dims)];
-    for l in 1..levels {
-        let ld = dims.map(|d| (d >> l).max(1));
-        // Level-0 index range under cell c of level l along an axis.
-        let span = |c: usize, n: usize, d: usize| (c << l)..if c + 1 == n { d } else { ((c + 1) << l).min(d) };
-        let mut level = vec![0u8; ld[0] * ld[1] * ld[2]];
-        for a in 0..ld[0] {
-            for b in 0..ld[1] {
-                for c in 0..ld[2] {
-                    let any = span(a, ld[0], dims[0]).any(|i| {
-                        span(b, ld[1], dims[1])
-                            .any(|j| span(c, ld[2], dims[2]).any(|k| occ[(i * dims[1] + j) * dims[2] + k] != 0))
-                    });
-                    level[(a * ld[1] + b) * ld[2] + c] = any as u8;
-                }
+/// Largest empty radius kept, in cells: a leap crosses at most 2R - 1
+/// cells (16 cells = 128 voxels along an axis), and the field costs
+/// O(cells * R) to build.
+pub const MAX_EMPTY_RADIUS: usize = 16;
+
+/// Per cell of an occupancy grid (0 = occupied), its empty radius: the
+/// Chebyshev distance in cells to the nearest occupied cell (0 for an
+/// occupied cell, at most MAX_EMPTY_RADIUS). A cell of radius r sits at the
+/// centre of an empty cube of 2r - 1 cells a side, which a ray leaves in one
+/// leap. Cells outside the grid count as empty: rays never sample there.
+/// The distance is separable: min over occupied o of max(|da|, |db|, |dc|)
+/// is taken one axis at a time, each pass the max of the offset along its
+/// axis and the previous pass's distance, within the radius cap.
+pub fn empty_radius(occ: &[u8], dims: [usize; 3]) -> Vec<u8> {
+    let cap = MAX_EMPTY_RADIUS;
+    let [d0, d1, d2] = dims;
+    let index = |a: usize, b: usize, c: usize| (a * d1 + b) * d2 + c;
+    // Along axis 2: the distance to the nearest occupied cell of the row.
+    let mut dist: Vec<usize> = occ.iter().map(|&o| if o != 0 { 0 } else { cap }).collect();
+    for a in 0..d0 {
+        for b in 0..d1 {
+            for c in 1..d2 {
+                dist[index(a, b, c)] = dist[index(a, b, c)].min(dist[index(a, b, c - 1)] + 1);
+            }
+            for c in (0..d2.saturating_sub(1)).rev() {
+                dist[index(a, b, c)] = dist[index(a, b, c)].min(dist[index(a, b, c + 1)] + 1);
             }
         }
-        out.push((level, ld));
     }
-    out
+    // Along axes 1 and 0: min over offsets k of max(|k|, distance there).
+    for axis in [1, 0] {
+        let len = dims[axis];
+        let step = if axis == 1 { d2 } else { d1 * d2 };
+        let prev = dist.clone();
+        for (i, out) in dist.iter_mut().enumerate() {
+            let at = (i / step) % len;
+            // Offsets k >= best cannot lower it.
+            let mut best = prev[i];
+            let mut k = 1;
+            while k < best && k < len {
+                if at >= k {
+                    best = best.min(k.max(prev[i - k * step]));
+                }
+                if at + k < len {
+                    best = best.min(k.max(prev[i + k * step]));
+                }
+                k += 1;
+            }
+            *out = best;
+        }
+    }
+    dist.into_iter().map(|r| r.min(cap) as u8).collect()
 }
 
 #[cfg(test)]
@@ -432,15 +458,33 @@ mod tests {
     }
 
     #[test]
-    fn pyramid_covers_remainders() {
-        // 5 cells along one axis; only the last is occupied. Level 1 has 2
-        // cells: the second covers cells 2..5 including the remainder.
-        let occ = vec![0, 0, 0, 0, 1];
-        let p = pyramid(&occ, [1, 1, 5], 3);
-        assert_eq!(p[1], (vec![0, 1], [1, 1, 2]));
-        assert_eq!(p[2], (vec![1], [1, 1, 1]));
-        let p = pyramid(&[0, 1, 0, 0], [1, 1, 4], 2);
-        assert_eq!(p[1].0, vec![1, 0]);
+    fn empty_radius_is_the_chebyshev_distance_to_an_occupied_cell() {
+        // Brute force on a grid with a few occupied cells, and the cap.
+        let dims = [5, 7, 9];
+        let mut occ = vec![0u8; 5 * 7 * 9];
+        for &(a, b, c) in &[(0, 0, 0), (4, 6, 2), (2, 3, 8)] {
+            occ[(a * 7 + b) * 9 + c] = 3;
+        }
+        let r = empty_radius(&occ, dims);
+        for a in 0..5i64 {
+            for b in 0..7i64 {
+                for c in 0..9i64 {
+                    let want = [(0, 0, 0), (4, 6, 2), (2, 3, 8)]
+                        .iter()
+                        .map(|&(x, y, z)| (a - x).abs().max((b - y).abs()).max((c - z).abs()))
+                        .min()
+                        .unwrap();
+                    assert_eq!(r[((a * 7 + b) * 9 + c) as usize] as i64, want, "cell {a} {b} {c}");
+                }
+            }
+        }
+        let wide = [1, 1, 40];
+        let mut occ = vec![0u8; 40];
+        occ[0] = 1;
+        let r = empty_radius(&occ, wide);
+        assert_eq!(r[1], 1);
+        assert_eq!(r[39], MAX_EMPTY_RADIUS as u8);
+        assert_eq!(empty_radius(&[0; 8], [2, 2, 2]), vec![MAX_EMPTY_RADIUS as u8; 8]);
     }
 
     #[test]

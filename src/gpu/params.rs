@@ -58,7 +58,7 @@ uniform_block! {
         pub pass_steps: u32,
         pub first_pass: u32,
         pub last_pass: u32,
-        pub occ_levels: u32,
+        pub pass_pad: u32,
         pub jitter_seed: u32,
         pub iso_value: f32,
         /// Henyey–Greenstein g.
@@ -106,7 +106,6 @@ pub struct FrameInputs {
     pub width: u32,
     pub height: u32,
     pub lut_size: u32,
-    pub occ_levels: u32,
     pub value_map: ValueMap,
     /// Crop box in world coordinates (None: the whole volume).
     pub clip: Option<Bounds>,
@@ -164,7 +163,7 @@ impl Params {
             pass_steps: 0,
             first_pass: 1,
             last_pass: 1,
-            occ_levels: f.occ_levels,
+            pass_pad: 0,
             jitter_seed: cfg.jitter_seed,
             iso_value: cfg.iso_value as f32,
             anisotropy: cfg.anisotropy as f32,

@@ -7,7 +7,7 @@ use super::context::GpuContext;
 use crate::error::Error;
 use super::half::{f16_to_f32, f32_to_f16};
 use crate::config::OpacityCorrection;
-use crate::occupancy::{pyramid, MinMaxGrid, SegmentRanges};
+use crate::occupancy::{empty_radius, MinMaxGrid, SegmentRanges};
 use crate::preintegrate;
 use crate::scene::Bounds;
 use crate::error::try_collect;
@@ -326,9 +326,11 @@ pub enum OccSource {
     Below(u64),
 }
 
-/// Which cells of the volume can show anything, as an R8Uint 3-D texture
-/// (one byte per 8^3 voxels, 0 where empty) with up to 4 mip levels (cells
-/// of 8, 16, 32, 64 voxels; levels above 0 hold 0 or 1).
+/// Which cells of the volume can show anything, as an Rg8Uint 3-D texture,
+/// one texel per 8^3 voxels: r is 0 where the cell is empty (else its
+/// majorant code), g its empty radius (`occupancy::empty_radius`), so that
+/// a ray in empty space leaves the whole empty cube around its cell in one
+/// leap from one fetch.
 pub struct Occupancy {
     pub view: Option<wgpu::TextureView>,
     /// What the grid was built from.
@@ -337,26 +339,23 @@ pub struct Occupancy {
     /// worth its cost (its branch slows dense scenes by ~20% on lavapipe);
     /// at 1 no ray needs marching.
     pub empty_fraction: f64,
-    pub levels: u32,
 }
 
 impl Occupancy {
     pub fn new() -> Occupancy {
-        Occupancy { view: None, source: None, empty_fraction: 0.0, levels: 1 }
+        Occupancy { view: None, source: None, empty_fraction: 0.0 }
     }
 
     /// Uploads the grid `occ` (0 = empty) of `grid`'s cells, built from
     /// `source`. Returns the bytes written.
     pub fn upload(&mut self, ctx: &GpuContext, grid: &MinMaxGrid, occ: &[u8], source: OccSource) -> Result<u64, Error> {
         let [g0, g1, g2] = grid.dims;
-        let largest = g0.max(g1).max(g2) as u32;
-        let levels = (32 - largest.leading_zeros()).clamp(1, 4) as usize;
-        let data: Vec<u8> = pyramid(occ, grid.dims, levels).into_iter().flat_map(|(l, _)| l).collect();
+        let radius = empty_radius(occ, grid.dims);
+        let data: Vec<u8> = occ.iter().zip(&radius).flat_map(|(&o, &r)| [o, r]).collect();
         let size = wgpu::Extent3d { width: g2 as u32, height: g1 as u32, depth_or_array_layers: g0 as u32 };
-        let r8 = wgpu::TextureFormat::R8Uint;
-        let view = ctx.texture_with_data("uploading the occupancy grid", "occupancy", size, D3, r8, levels as u32, &data)?;
+        let rg8 = wgpu::TextureFormat::Rg8Uint;
+        let view = ctx.texture_with_data("uploading the occupancy grid", "occupancy", size, D3, rg8, 1, &data)?;
         self.empty_fraction = occ.iter().filter(|&&o| o == 0).count() as f64 / occ.len() as f64;
-        self.levels = levels as u32;
         self.view = Some(view);
         self.source = Some(source);
         Ok(data.len() as u64)

@@ -219,7 +219,6 @@ impl GpuRenderer {
             width: self.width,
             height: self.height,
             lut_size: self.tables.lut.as_ref().map_or(1, |(_, n)| *n),
-            occ_levels: 1,
             value_map: self.value_map,
             clip: self.clip,
             max_extinction: self.max_extinction(cfg),
@@ -342,7 +341,7 @@ impl GpuRenderer {
         let (variant, plan) = self.prepare(&frame.camera, &frame.light, &cfg)?;
         self.bind(variant.layout.hw_filter)?;
         let bind_group = self.bind_group.as_ref().expect("bound above").0.clone();
-        let params = Params { occ_levels: self.occupancy.levels, ..frame.params.for_brick(bounds, grid, index) };
+        let params = frame.params.for_brick(bounds, grid, index);
         let ends = Ends { first: frame.dispatched == 0, last: false };
         let core = self.volume.as_ref().expect("swapped in").bounds;
         let rect = screen_rect(&frame.camera.basis(self.width, self.height)?, &core, self.width, self.height);

@@ -124,7 +124,6 @@ impl GpuRenderer {
             width: self.width,
             height: self.height,
             lut_size: self.tables.lut.as_ref().map_or(1, |(_, n)| *n),
-            occ_levels: self.occupancy.levels,
             value_map: self.value_map,
             clip: self.clip,
             max_extinction: self.max_extinction(cfg),
