@@ -30,6 +30,7 @@ struct Params {
     pass_steps: u32,
     first_pass: u32,
     last_pass: u32,
+    // Padding: keeps the vec4 fields below 16-byte aligned.
     pass_pad: u32,
     jitter_seed: u32,
     // The model's options: isosurface value, Henyey–Greenstein g, shadow

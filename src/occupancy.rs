@@ -289,9 +289,9 @@ pub fn segment_ranges(step: f64, spacing: [f64; 3]) -> SegmentRanges {
     }))
 }
 
-/// Largest empty radius kept, in cells: a leap crosses at most 2R - 1
-/// cells (16 cells = 128 voxels along an axis), and the field costs
-/// O(cells * R) to build.
+/// Largest empty radius kept, in cells: a leap ends at most R cells past
+/// the cell it starts in (16 cells = 128 voxels), and the field costs
+/// O(cells * R) to build. 64 measured no faster on the accuracy scenes.
 pub const MAX_EMPTY_RADIUS: usize = 16;
 
 /// Per cell of an occupancy grid (0 = occupied), its empty radius: the

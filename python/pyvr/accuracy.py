@@ -25,8 +25,9 @@ import numpy as np
 from .config import RenderConfig
 
 LEVELS = 255.0
-# A pre-integrated frame's time over a midpoint frame's at the same step, at
-# most (1.1-1.3x on the accuracy benchmark's scenes: benches/preintegration.py).
+# A pre-integrated frame's time over a midpoint frame's at the same step
+# (1.0-1.4x on the accuracy benchmark's scenes, at most 1.25x at steps up to
+# 0.01: benches/preintegration.py).
 PREINTEGRATED_COST = 1.3
 
 

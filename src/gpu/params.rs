@@ -58,6 +58,7 @@ uniform_block! {
         pub pass_steps: u32,
         pub first_pass: u32,
         pub last_pass: u32,
+        /// Padding: keeps the vec4 fields below 16-byte aligned.
         pub pass_pad: u32,
         pub jitter_seed: u32,
         pub iso_value: f32,
