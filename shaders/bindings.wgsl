@@ -30,8 +30,9 @@ struct Params {
     pass_steps: u32,
     first_pass: u32,
     last_pass: u32,
-    // Padding: keeps the vec4 fields below 16-byte aligned.
-    pass_pad: u32,
+    // Voxels of border around the volume's texels (gradient texels have 1),
+    // taken off a sample's voxel coordinates before finding its cell.
+    border: u32,
     jitter_seed: u32,
     // The model's options: isosurface value, Henyey–Greenstein g, shadow
     // step, and the side of the pre-integration table.

@@ -13,15 +13,18 @@ fn light_travel(p: vec3<f32>) -> vec4<f32> {
     return vec4<f32>(P.light_dir.xyz, 3.0e38);
 }
 
-// `n` is a decoded unit normal or a gradient already scaled into a safe
-// range (sampling.wgsl), so its plain length cannot overflow.
+// `n` is a decoded unit normal, a gradient already scaled into a safe
+// range (sampling.wgsl), or an interpolated gradient texel, whose
+// components may reach 1e38: it is scaled by its largest component before
+// its length is taken, which would otherwise overflow.
 fn light_intensity(n: vec3<f32>, p: vec3<f32>) -> f32 {
-    let ln = length(n);
+    let m = max(max(abs(n.x), abs(n.y)), abs(n.z));
     let l = light_travel(p);
-    if (!(ln > 0.0) || l.w < 0.0) {
+    if (!(m > 0.0) || l.w < 0.0) {
         return P.ambient;
     }
-    return P.ambient + P.diffuse * max(dot(n / ln, l.xyz), 0.0);
+    let u = n / m;
+    return P.ambient + P.diffuse * max(dot(u / length(u), l.xyz), 0.0);
 }
 
 // 4π p(cos θ) of Henyey–Greenstein (1 when g = 0: isotropic).

@@ -2,6 +2,12 @@
 // leaves empty (src/occupancy.rs builds the grid, CELL voxels a side, and
 // each cell's empty radius).
 
+// Texture coordinates -> the volume's voxel coordinates (voxel units, the
+// texels' border taken off), in texture axis order.
+fn voxel_coords(tc: vec3<f32>) -> vec3<f32> {
+    return tc * vec3<f32>(textureDimensions(volume)) - f32(P.border);
+}
+
 // The occupancy cell holding voxel coordinates u (voxel units).
 fn cell_of(u: vec3<f32>) -> vec3<i32> {
     let last = vec3<i32>(textureDimensions(occupancy)) - 1;
@@ -15,7 +21,7 @@ fn cell_of(u: vec3<f32>) -> vec3<i32> {
 // cube may reach past them).
 fn empty_cell_exit(tc: vec3<f32>, d: vec3<f32>) -> f32 {
     let dims = vec3<f32>(textureDimensions(volume));
-    let u = tc * dims;
+    let u = voxel_coords(tc);
     let c0 = cell_of(u);
     let radius = i32(textureLoad(occupancy, c0, 0).g);
     if (radius == 0) {
@@ -23,7 +29,8 @@ fn empty_cell_exit(tc: vec3<f32>, d: vec3<f32>) -> f32 {
     }
     let lo = vec3<f32>(c0 - (radius - 1)) * CELL;
     let hi = vec3<f32>(c0 + radius) * CELL;
-    // Voxel units per unit of t along the ray, in texture axis order.
+    // Voxel units per unit of t along the ray, in texture axis order (the
+    // scale maps the box to the texels inside any border).
     let du = (d * P.tex_scale.xyz).zyx * dims;
     var exit = 3.0e38;
     for (var a = 0; a < 3; a++) {

@@ -38,8 +38,7 @@ fn segment_rate(r: Ray, sp: vec2<f32>) -> f32 {
         return P.track_rate;
     }
     let least = 1.0 / P.step_size;
-    let u = tex_of(point_at(r, sp.x + 0.5 * sp.y)) * vec3<f32>(textureDimensions(volume));
-    let c0 = cell_of(u);
+    let c0 = cell_of(voxel_coords(tex_of(point_at(r, sp.x + 0.5 * sp.y))));
     let q = textureLoad(occupancy, c0, 0).r;
     let cell = select(exp2((f32(q) - 128.0) / 16.0) * P.inv_ref, P.track_rate, q >= 255u || q == 0u);
     let rate = clamp(cell, least, P.track_rate);

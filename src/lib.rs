@@ -8,6 +8,7 @@ pub mod bricks;
 pub mod config;
 pub mod error;
 pub mod gpu;
+pub mod gradients;
 pub mod integrate;
 pub mod model;
 pub mod occupancy;

@@ -58,8 +58,10 @@ uniform_block! {
         pub pass_steps: u32,
         pub first_pass: u32,
         pub last_pass: u32,
-        /// Padding: keeps the vec4 fields below 16-byte aligned.
-        pub pass_pad: u32,
+        /// Voxels of border around the volume's texels (1 for gradient
+        /// texels, `gradients::bordered_texels`), taken off a sample's
+        /// voxel coordinates before finding its occupancy cell.
+        pub border: u32,
         pub jitter_seed: u32,
         pub iso_value: f32,
         /// Henyey–Greenstein g.
@@ -164,7 +166,7 @@ impl Params {
             pass_steps: 0,
             first_pass: 1,
             last_pass: 1,
-            pass_pad: 0,
+            border: 0,
             jitter_seed: cfg.jitter_seed,
             iso_value: cfg.iso_value as f32,
             anisotropy: cfg.anisotropy as f32,

@@ -8,6 +8,7 @@ use crate::error::Error;
 use super::half::{f16_to_f32, f32_to_f16};
 use crate::config::OpacityCorrection;
 use crate::occupancy::{empty_radius, MinMaxGrid, SegmentRanges};
+use crate::gradients;
 use crate::preintegrate;
 use crate::scene::Bounds;
 use crate::error::try_collect;
@@ -25,6 +26,9 @@ pub struct VolumeGpu {
     pub normals: Option<wgpu::TextureView>,
     /// Normals in the volume's texels: (value, nx, ny, nz), Rgba16Float.
     pub normals_in_volume: bool,
+    /// The texels are (value, gradient) with a one-voxel border
+    /// (`gradients::bordered_texels`): gradient shading reads them as normals.
+    pub gradients: bool,
     /// The device's texel format for the values, for reports.
     pub format: wgpu::TextureFormat,
     pub dims: [usize; 3],
@@ -117,6 +121,7 @@ impl VolumeGpu {
             view,
             normals: normals.map(|(v, _)| v),
             normals_in_volume: false,
+            gradients: false,
             format,
             dims: vol.dims,
             bounds: vol.bounds,
@@ -158,6 +163,7 @@ impl VolumeGpu {
             view,
             normals: None,
             normals_in_volume: vol.normals.is_some(),
+            gradients: false,
             format,
             dims: vol.dims,
             bounds: vol.bounds,
@@ -191,9 +197,49 @@ impl VolumeGpu {
         Self::whole_texels(ctx, vol, format, bytemuck::cast_slice(&texels), MinMaxGrid::build(vol))
     }
 
+    /// Float32 values with their gradients (`gradients::bordered_texels`),
+    /// one Rgba32Float texel each, for gradient-shaded frames: a lit sample
+    /// then fetches once instead of seven times. None where the device
+    /// cannot filter float32 textures, a value is not finite, or the texels
+    /// pass its limits. `grid` is the volume's own: the shader takes the
+    /// border off before finding a sample's cell.
+    pub fn with_gradients(ctx: &GpuContext, vol: &VolumeView, grid: &MinMaxGrid) -> Result<Option<VolumeGpu>, Error> {
+        let Voxels::F32(values) = vol.voxels else {
+            return Ok(None);
+        };
+        let big = vol.dims.map(|d| d + 2);
+        let texels = big.iter().product::<usize>() as u64;
+        let fits = big.iter().all(|&d| d <= ctx.limits.max_texture_dimension_3d as usize)
+            && texels * 16 <= ctx.limits.max_buffer_size;
+        if !fits || !ctx.features.contains(wgpu::Features::FLOAT32_FILTERABLE) || !values.iter().all(|v| v.is_finite()) {
+            return Ok(None);
+        }
+        let extent = vol.bounds.extent().to_array();
+        let spacing = std::array::from_fn(|a| extent[a] / vol.dims[a] as f64);
+        let data = gradients::bordered_texels(values, vol.dims, spacing)?;
+        let format = wgpu::TextureFormat::Rgba32Float;
+        let view = ctx.texture_with_data("uploading the volume's gradients", "volume", extent_of(big), D3, format, 1,
+                                         bytemuck::cast_slice(&data))?;
+        Ok(Some(VolumeGpu {
+            filterable: true,
+            view,
+            normals: None,
+            normals_in_volume: true,
+            gradients: true,
+            format,
+            dims: vol.dims,
+            bounds: vol.bounds,
+            bytes: texels * 16,
+            grid: grid.clone(),
+        }))
+    }
+
     /// The stored format and where the normals are, for reports.
     pub fn storage(&self) -> String {
         let texel = format!("{:?}", self.format).to_lowercase();
+        if self.gradients {
+            return format!("{texel} (value, gradient)");
+        }
         match (self.normals.is_some(), self.normals_in_volume) {
             (true, _) => format!("{texel} + rgba8snorm normals"),
             (false, true) => format!("{texel} (value, normal)"),

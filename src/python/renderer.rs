@@ -210,6 +210,15 @@ impl PyRenderer {
         })
     }
 
+    /// Stores the loaded float32 volume (`data` and bounds as loaded, no
+    /// normals) with its gradients, so that gradient-shaded frames fetch
+    /// once a sample; returns whether it did (false: left as it was).
+    fn pack_gradients(&mut self, py: Python<'_>, data: &Bound<'_, PyAny>, min_bounds: Vec3, max_bounds: Vec3) -> PyResult<bool> {
+        let inner = &mut *self.inner;
+        let normals: Option<PyReadonlyArray4<'_, f32>> = None;
+        with_volume(data, &normals, min_bounds, max_bounds, |view| run_released(py, |_| inner.pack_gradients(&view)))
+    }
+
     /// Uploads an (M, 4) float32 RGBA table, entries at scalars m / (M - 1).
     fn set_lut(&mut self, lut: PyReadonlyArray2<'_, f32>) -> PyResult<()> {
         let rows = lut_rows(&lut)?;

@@ -168,8 +168,12 @@ def test_unaligned_arrays_and_memmaps_render_like_plain_arrays(tmp_path):
     mm = np.memmap(tmp_path / "v.dat", dtype=np.float32, mode="w+", shape=data.shape)
     mm[...] = data
     ref = frame(make_renderer(Volume(data)))
+    assert np.array_equal(frame(make_renderer(Volume(unaligned))), ref)
+    # A memmap is rendered in bricks, whose lit samples take gradients on the
+    # fly where a loaded array reads gradient texels: the same rule up to
+    # float32 rounding (tests/test_gradient_texels.py).
+    assert np.abs(frame(make_renderer(Volume(mm))) - ref).max() * 255 < 0.02
     for a in (unaligned, mm):
-        assert np.array_equal(frame(make_renderer(Volume(a))), ref)
         r = make_renderer(Volume(a))
         assert np.abs(r.render_float64(premultiplied=True) - make_renderer(Volume(data)).render_float64(
             premultiplied=True)).max() == 0

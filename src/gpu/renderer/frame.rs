@@ -128,7 +128,17 @@ impl GpuRenderer {
             clip: self.clip,
             max_extinction: self.max_extinction(cfg),
         };
-        Ok(Params::new(&inputs, &basis, light, cfg))
+        let mut params = Params::new(&inputs, &basis, light, cfg);
+        if vol.gradients {
+            // The texture has a one-voxel border: the box maps to its inner texels.
+            params.border = 1;
+            for a in 0..3 {
+                let n = vol.dims[a] as f32;
+                params.tex_scale[a] *= n / (n + 2.0);
+                params.tex_offset[a] = 1.0 / (n + 2.0);
+            }
+        }
+        Ok(params)
     }
 
     /// The shader variant and the passes this frame needs, with the ray

@@ -300,6 +300,28 @@ impl GpuRenderer {
         Ok(())
     }
 
+    /// Replaces the loaded volume's texture by one holding its values with
+    /// their gradients (`VolumeGpu::with_gradients`), so that gradient-shaded
+    /// frames fetch once a sample. `vol` must be the volume loaded, stored
+    /// as float32 values alone (no normals, not bricked, finite). Returns
+    /// whether it did; false leaves everything as it was.
+    pub fn pack_gradients(&mut self, vol: &VolumeView) -> Result<bool, Error> {
+        self.check_process()?;
+        let plain = matches!(&self.volume, Some(v) if v.format == wgpu::TextureFormat::R32Float
+            && v.normals.is_none() && !v.normals_in_volume && v.dims == vol.dims && v.bounds == vol.bounds);
+        if !plain || self.bricks.is_some() || vol.normals.is_some() {
+            return Ok(false);
+        }
+        let grid = &self.volume.as_ref().expect("checked above").grid;
+        let Some(volume) = VolumeGpu::with_gradients(&self.ctx, vol, grid)? else {
+            return Ok(false);
+        };
+        self.pending_upload += volume.bytes;
+        self.volume = Some(volume);
+        self.bind_group = None;
+        Ok(true)
+    }
+
     /// Uploads an RGBA lookup table (entries at scalars `m / (M - 1)`).
     pub fn set_lut(&mut self, lut: &[[f32; 4]]) -> Result<(), Error> {
         self.check_process()?;
