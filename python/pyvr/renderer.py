@@ -444,7 +444,11 @@ class VolumeRenderer:
           Models that read values only (MIP, MinIP, average, absorption,
           the isosurface's march, shadow rays) then fetch 16 bytes per
           sample instead of 4 and run 1.3-1.6x slower: load the volume
-          without normals for them.
+          without normals for them. Without normals, the first frame lit
+          from the data's gradient stores each value with its gradient
+          (16 bytes a voxel, where that fits a quarter of the memory
+          budget), so that a lit sample fetches once instead of seven
+          times; the images are the same within 0.003 level.
         - ``"float16"``: values rounded to float16 (relative error at most
           2**-11; values in [0, 1] move by at most 2**-12, a sixteenth of a
           256-entry table's spacing). 2 bytes per voxel, or 8 with normals
