@@ -693,11 +693,10 @@ class VolumeRenderer:
         gradient at every lit sample: seven fetches. At the first such frame
         after a load, the engine stores the float32 values with their
         gradients (16 bytes a voxel instead of 4, within a quarter of the
-        memory budget)
-        so that a lit sample fetches once, with the same result (the
-        interpolated differences are the differences of the interpolated
-        values; src/gradients.rs). Models that read values alone then fetch
-        16 bytes a sample too, as with supplied normals."""
+        memory budget) so that a lit sample fetches once, with the same
+        result (the interpolated differences are the differences of the
+        interpolated values; src/gradients.rs). Models that read values
+        alone then fetch 16 bytes a sample too, as with supplied normals."""
         if (self._gradients_tried or self.volume is None or self.volume.normals is not None
                 or self._light_args[3] <= 0 or cfg.model not in GRADIENT_SHADED_MODELS):
             return
