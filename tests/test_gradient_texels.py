@@ -38,6 +38,10 @@ SCENES = {
                                   np.array([1.2, 0.5, 0.3], np.float32)),
     # values near float32's range: the differences must neither overflow nor lose the direction
     "huge_values": lambda: Volume(noise((16, 16, 16), 1) * np.float32(3e38)),
+    # a box 6e37 across with faint differences: per world unit they would be
+    # float32 subnormals, which devices that flush them read as 0
+    "huge_box": lambda: Volume(noise((16, 16, 16), 2) * np.float32(1e-6), None, np.full(3, -3e37, np.float32),
+                               np.full(3, 3e37, np.float32)),
 }
 
 
@@ -46,7 +50,7 @@ SCENES = {
 def test_gradient_texels_give_the_same_image(name, model):
     vol = SCENES[name]()
     cfg = RenderConfig.balanced().replace(model=model, iso_value=0.5)
-    value_range = (0.0, 3e38) if name == "huge_values" else None
+    value_range = {"huge_values": (0.0, 3e38), "huge_box": (0.0, 1e-6)}.get(name)
     packed, on_the_fly, storage = both(vol, config=cfg, value_range=value_range,
                                        otf=OpacityTransferFunction.linear(0.0, 0.6))
     assert storage == "rgba32float (value, gradient)"

@@ -214,8 +214,12 @@ impl VolumeGpu {
         if !fits || !ctx.features.contains(wgpu::Features::FLOAT32_FILTERABLE) || !values.iter().all(|v| v.is_finite()) {
             return Ok(None);
         }
+        // Only the spacings' ratios matter: in units of the box's longest
+        // side (as the shader's are), a box light years or femtometres
+        // across neither flushes the gradients to 0 nor overflows them.
         let extent = vol.bounds.extent().to_array();
-        let spacing = std::array::from_fn(|a| extent[a] / vol.dims[a] as f64);
+        let unit = extent.iter().copied().fold(0.0, f64::max);
+        let spacing = std::array::from_fn(|a| extent[a] / unit / vol.dims[a] as f64);
         let data = gradients::bordered_texels(values, vol.dims, spacing)?;
         let format = wgpu::TextureFormat::Rgba32Float;
         let view = ctx.texture_with_data("uploading the volume's gradients", "volume", extent_of(big), D3, format, 1,
