@@ -703,10 +703,12 @@ class VolumeRenderer:
         from . import bricks
 
         self._gradients_tried = True
-        data = prepare_voxels(self.volume.data)
-        texels = int(np.prod([s + 2 for s in data.shape], dtype=np.int64))
+        texels = int(np.prod([s + 2 for s in self.volume.data.shape], dtype=np.int64))
         budget = bricks.DEFAULT_MEMORY_BUDGET if self._memory_budget is None else self._memory_budget
-        if self._precision == "float32" and data.dtype == np.float32 and 16 * texels <= budget // 4:
+        if self._precision != "float32" or 16 * texels > budget // 4:
+            return
+        data = prepare_voxels(self.volume.data)
+        if data.dtype == np.float32:
             self._engine.pack_gradients(data, *self._bounds)
 
     @_serialised

@@ -145,19 +145,21 @@ impl VolumeGpu {
             None => (wgpu::TextureFormat::R16Float, halves),
             Some(n) => (wgpu::TextureFormat::Rgba16Float, with_normals(&halves, n, f32_to_f16)?),
         };
-        Self::whole_texels(ctx, vol, format, bytemuck::cast_slice(&data), grid)
+        Self::whole_texels(ctx, vol, vol.dims, format, bytemuck::cast_slice(&data), grid)
     }
 
     /// A volume whose texels hold everything a sample reads (values, and
-    /// normals when given), filtered by the sampler.
+    /// normals when given), filtered by the sampler; `texels` is the
+    /// texture's size (the volume's, or larger by a border).
     fn whole_texels(
         ctx: &GpuContext,
         vol: &VolumeView,
+        texels: [usize; 3],
         format: wgpu::TextureFormat,
         bytes: &[u8],
         grid: MinMaxGrid,
     ) -> Result<VolumeGpu, Error> {
-        let view = ctx.texture_with_data("uploading the volume", "volume", extent_of(vol.dims), D3, format, 1, bytes)?;
+        let view = ctx.texture_with_data("uploading the volume", "volume", extent_of(texels), D3, format, 1, bytes)?;
         Ok(VolumeGpu {
             filterable: true,
             view,
@@ -181,20 +183,26 @@ impl VolumeGpu {
     /// shader, which reads values alone) and the texels fit one upload.
     pub fn packs_float32(ctx: &GpuContext, vol: &VolumeView, precision: Precision) -> bool {
         match (vol.voxels, vol.normals, precision) {
-            (Voxels::F32(v), Some(_), Precision::Float32) => {
-                ctx.features.contains(wgpu::Features::FLOAT32_FILTERABLE)
-                    && v.len() as u64 * 16 <= ctx.limits.max_buffer_size
-                    && v.iter().all(|x| x.is_finite())
-            }
+            (Voxels::F32(v), Some(_), Precision::Float32) => Self::rgba32_fits(ctx, v, v.len() as u64),
             _ => false,
         }
+    }
+
+    /// Whether `texels` Rgba32Float texels made from `values` can be
+    /// filtered and uploaded: the device filters float32, they fit one
+    /// upload, and every value is finite (volumes with NaN are interpolated
+    /// in the shader, which reads values alone).
+    fn rgba32_fits(ctx: &GpuContext, values: &[f32], texels: u64) -> bool {
+        ctx.features.contains(wgpu::Features::FLOAT32_FILTERABLE)
+            && texels * 16 <= ctx.limits.max_buffer_size
+            && values.iter().all(|x| x.is_finite())
     }
 
     /// Float32 values with their normals' directions, one Rgba32Float texel each.
     fn upload_packed_f32(ctx: &GpuContext, vol: &VolumeView, values: &[f32], normals: &[f32]) -> Result<VolumeGpu, Error> {
         let texels = with_normals(values, normals, |c| c)?;
         let format = wgpu::TextureFormat::Rgba32Float;
-        Self::whole_texels(ctx, vol, format, bytemuck::cast_slice(&texels), MinMaxGrid::build(vol))
+        Self::whole_texels(ctx, vol, vol.dims, format, bytemuck::cast_slice(&texels), MinMaxGrid::build(vol))
     }
 
     /// Float32 values with their gradients (`gradients::bordered_texels`),
@@ -209,9 +217,8 @@ impl VolumeGpu {
         };
         let big = vol.dims.map(|d| d + 2);
         let texels = big.iter().product::<usize>() as u64;
-        let fits = big.iter().all(|&d| d <= ctx.limits.max_texture_dimension_3d as usize)
-            && texels * 16 <= ctx.limits.max_buffer_size;
-        if !fits || !ctx.features.contains(wgpu::Features::FLOAT32_FILTERABLE) || !values.iter().all(|v| v.is_finite()) {
+        let max3d = ctx.limits.max_texture_dimension_3d as usize;
+        if big.iter().any(|&d| d > max3d) || !Self::rgba32_fits(ctx, values, texels) {
             return Ok(None);
         }
         // Only the spacings' ratios matter: in units of the box's longest
@@ -222,20 +229,10 @@ impl VolumeGpu {
         let spacing = std::array::from_fn(|a| extent[a] / unit / vol.dims[a] as f64);
         let data = gradients::bordered_texels(values, vol.dims, spacing)?;
         let format = wgpu::TextureFormat::Rgba32Float;
-        let view = ctx.texture_with_data("uploading the volume's gradients", "volume", extent_of(big), D3, format, 1,
-                                         bytemuck::cast_slice(&data))?;
-        Ok(Some(VolumeGpu {
-            filterable: true,
-            view,
-            normals: None,
-            normals_in_volume: true,
-            gradients: true,
-            format,
-            dims: vol.dims,
-            bounds: vol.bounds,
-            bytes: texels * 16,
-            grid: grid.clone(),
-        }))
+        let mut gpu = Self::whole_texels(ctx, vol, big, format, bytemuck::cast_slice(&data), grid.clone())?;
+        gpu.normals_in_volume = true;
+        gpu.gradients = true;
+        Ok(Some(gpu))
     }
 
     /// The stored format and where the normals are, for reports.
