@@ -14,7 +14,8 @@
 //! to back, no jitter, float32 texels with normals, no crop or value map);
 //! they are measurements, not an engine.
 //!
-//! Run: `cargo bench --bench native_march -- [size] [n]` (default 512 256).
+//! Run: `cargo bench --bench native_march -- [size] [n]` (default 512 256);
+//! `benches/native_march.py` runs it and writes the docs table.
 
 use glam::DVec3;
 use pyvr_core::config::RenderConfig;
@@ -476,6 +477,11 @@ fn main() {
     let gpu_ns = per(gpu_ms, stats.samples);
     println!("{:8} {:>9} {:>10} {:>10} {:>12} {:>22}", "engine", "ms", "samples M", "ns/sample", "vs GPU path", "max diff vs GPU, levels");
     println!("{:8} {:9.1} {:10.2} {:10.2} {:>12} {:>22}", "gpu", gpu_ms, stats.samples as f64 / 1e6, gpu_ns, "1.00x", "-");
+    // Rows for benches/native_march.py, which stamps them into a docs table.
+    let row = |name: &str, ms: f64, samples: u64, ns: f64, diff: String| {
+        format!("[\"{name}\", {ms:.1}, {:.2}, {ns:.2}, {:.2}, {diff}]", samples as f64 / 1e6, gpu_ns / ns)
+    };
+    let mut rows = vec![row("gpu path", gpu_ms, stats.samples, gpu_ns, "\"-\"".into())];
     // Both marches are compiled for AVX2 and FMA on x86-64 (the scalar one
     // for its floor and fused multiply-adds).
     #[cfg(target_arch = "x86_64")]
@@ -502,5 +508,11 @@ fn main() {
             gpu_ns / ns
         );
         assert!(diff <= 0.05, "{name}: differs from the GPU image by {diff} levels: not the same rule");
+        rows.push(row(name, ms, samples, ns, format!("{diff:.4}")));
+    }
+    if let Some(path) = std::env::var_os("NATIVE_MARCH_JSON") {
+        let device = gpu.context().describe().replace('\\', "/").replace('"', "'");
+        let json = format!("{{\"device\": \"{device}\", \"rows\": [{}]}}\n", rows.join(", "));
+        std::fs::write(&path, json).expect("writing the rows");
     }
 }
