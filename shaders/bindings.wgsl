@@ -91,5 +91,6 @@ struct Params {
 // Chebyshev distance in cells to the nearest cell that is not empty.
 @group(0) @binding(BINDING_OCCUPANCY) var occupancy: texture_3d<u32>;
 // Pre-integrated segments (src/preintegrate.rs): x = front value, y = back
-// value; rgb = premultiplied colour, a = optical depth of one full step.
+// value; rgb = premultiplied colour, a = optical depth of one full step. Its
+// last row is the transfer-function table (compositing.wgsl, preint_lut_uv).
 @group(0) @binding(BINDING_PREINT) var preint: texture_2d<f32>;

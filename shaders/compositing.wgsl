@@ -30,10 +30,21 @@ fn extinction(a: f32) -> f32 {
     return a;
 }
 
-fn preint_lookup(vf: f32, vb: f32) -> vec4<f32> {
+// Where the pre-integration texture holds a full segment's entry (front and
+// back values, a side x side table in its first rows and columns).
+fn preint_uv(vf: f32, vb: f32) -> vec2<f32> {
     let m = P.preint_side;
-    let uv = (clamp(vec2<f32>(vf, vb), vec2<f32>(0.0), vec2<f32>(1.0)) * (m - 1.0) + 0.5) / m;
-    return textureSampleLevel(preint, linear_sampler, uv, 0.0);
+    let size = vec2<f32>(textureDimensions(preint));
+    return (clamp(vec2<f32>(vf, vb), vec2<f32>(0.0), vec2<f32>(1.0)) * (m - 1.0) + 0.5) / size;
+}
+
+// Where it holds the transfer function's entry for value v: its last row is
+// the table itself, read at the texture's top edge, where clamp-to-edge
+// filtering mixes that row with nothing but itself.
+fn preint_lut_uv(v: f32) -> vec2<f32> {
+    let m = f32(P.lut_size);
+    let w = f32(textureDimensions(preint).x);
+    return vec2<f32>((clamp(v, 0.0, 1.0) * (m - 1.0) + 0.5) / w, 1.0);
 }
 
 // What a Beer–Lambert march carries from segment to segment.
@@ -92,13 +103,15 @@ fn start_integration(r: Ray) -> Integration {
 // without it (the ray's first, or the first after a leap or a shorter
 // segment) fetches that boundary instead and sets `again`, so that the
 // caller marches the segment once more; a shorter segment (at the chord's
-// ends) uses the midpoint rule. One fetch per call, chosen by select:
-// llvmpipe runs both sides of a branch under a lane mask whenever any lane
-// takes each side, so fetches in alternative branches would all be paid on
-// every segment. A full segment's light is the mean of the light at its two
-// ends (as in the f64 integrator), each computed once from the texel
-// fetched there: normals packed with the values then cost no fetch of
-// their own.
+// ends) uses the midpoint rule. One volume fetch and one table fetch per
+// call, each chosen by select: llvmpipe runs both sides of a branch under a
+// lane mask whenever any lane takes each side, so fetches in alternative
+// branches would all be paid on every segment (a shorter segment's own
+// transfer-function lookup cost 15-20% of the frame before it moved into
+// the pre-integration texture). A full segment's light is the mean of the
+// light at its two ends (as in the f64 integrator), each computed once from
+// the texel fetched there: normals packed with the values then cost no
+// fetch of their own.
 fn preintegrated_segment(r: Ray, si: u32, sp: vec2<f32>, s: ptr<function, Integration>,
                          again: ptr<function, bool>) -> Segment {
     let h = P.step_size;
@@ -127,8 +140,18 @@ fn preintegrated_segment(r: Ray, si: u32, sp: vec2<f32>, s: ptr<function, Integr
     (*s).carry_v = v;
     (*s).carry_light = light;
     *again = primes;
+    var vf = held;
+    var vb = v;
+    if (BACK_TO_FRONT) {
+        vf = v;
+        vb = held;
+    }
+    let known = !is_nan(vf) && !is_nan(vb);
+    let uv = select(preint_uv(select(0.0, vf, known), select(0.0, vb, known)),
+                    preint_lut_uv(select(0.0, v, !is_nan(v))), !full);
+    let e = textureSampleLevel(preint, linear_sampler, uv, 0.0);
     if (!full) {
-        var m = midpoint_segment(texel, sp.y);
+        var m = midpoint_segment_from(texel, e, sp.y);
         m.add *= light;
         return m;
     }
@@ -136,14 +159,7 @@ fn preintegrated_segment(r: Ray, si: u32, sp: vec2<f32>, s: ptr<function, Integr
     g.x = 0.0;
     g.add = vec3<f32>(0.0);
     g.have_texel = false;
-    var vf = held;
-    var vb = v;
-    if (BACK_TO_FRONT) {
-        vf = v;
-        vb = held;
-    }
-    if (carried && !is_nan(vf) && !is_nan(vb)) {
-        let e = preint_lookup(vf, vb);
+    if (carried && known) {
         g.x = e.a;
         g.add = e.rgb * (0.5 * (held_light + light));
     }
@@ -153,8 +169,12 @@ fn preintegrated_segment(r: Ray, si: u32, sp: vec2<f32>, s: ptr<function, Integr
 // A segment from its midpoint texel.
 fn midpoint_segment(texel: vec4<f32>, seg: f32) -> Segment {
     let v = tf_value(texel.r);
-    let valid = !is_nan(v);
-    let rgba = eval_lut(select(0.0, v, valid));
+    return midpoint_segment_from(texel, eval_lut(select(0.0, v, !is_nan(v))), seg);
+}
+
+// A segment from its midpoint texel and the table's entry for its value.
+fn midpoint_segment_from(texel: vec4<f32>, rgba: vec4<f32>, seg: f32) -> Segment {
+    let valid = !is_nan(tf_value(texel.r));
     let sigma = extinction(select(0.0, rgba.a, valid));
     var g: Segment;
     g.x = select(0.0, min(sigma * (seg * P.inv_ref), 1.0e30), sigma > 0.0 && seg > 0.0);

@@ -294,6 +294,23 @@ fn float_table(ctx: &GpuContext, rows: &[[f32; 4]], cap: Option<f32>) -> (wgpu::
     }
 }
 
+/// The pre-integration texture's texels and width: the `side` x `side`
+/// table, then the transfer-function table `lut` as one more row, so that a
+/// pre-integrated frame reads a shorter segment's midpoint entry from the
+/// same texture as a full segment's, in one fetch chosen by select (a fetch
+/// of its own, in a branch, cost 15-20% of such a frame on lavapipe). Rows
+/// are as wide as the wider table; each narrower one repeats its last entry.
+fn with_lut_row(table: &[[f32; 4]], side: usize, lut: &[[f32; 4]]) -> (usize, Vec<[f32; 4]>) {
+    let width = side.max(lut.len());
+    let padded = |row: &[[f32; 4]]| {
+        let last = row.last().copied().unwrap_or([0.0; 4]);
+        row.iter().copied().chain(std::iter::repeat(last)).take(width).collect::<Vec<_>>()
+    };
+    let mut texels: Vec<[f32; 4]> = table.chunks(side).flat_map(padded).collect();
+    texels.extend(padded(lut));
+    (width, texels)
+}
+
 /// The transfer-function table and what is derived from it.
 pub struct Tables {
     /// The table (entries at scalars m / (M - 1)) as an M x 1 texture the
@@ -349,11 +366,12 @@ impl Tables {
         if self.preint.as_ref().is_some_and(|(_, k)| *k == key) {
             return Ok(0);
         }
+        let side = preintegrate::table_side(self.rows.len());
         let table = preintegrate::table(&self.rows, key.len_over_ref, key.form);
-        let side = preintegrate::table_side(self.rows.len()) as u32;
+        let (width, texels) = with_lut_row(&table, side, &self.rows);
         // f16 tops out at 65504: deeper segments are opaque anyway.
-        let (format, bytes) = float_table(ctx, &table, Some(6.0e4));
-        let size = wgpu::Extent3d { width: side, height: side, depth_or_array_layers: 1 };
+        let (format, bytes) = float_table(ctx, &texels, Some(6.0e4));
+        let size = wgpu::Extent3d { width: width as u32, height: side as u32 + 1, depth_or_array_layers: 1 };
         let view = ctx.texture_with_data("uploading the pre-integration table", "preint", size, D2, format, 1, &bytes)?;
         self.preint = Some((view, key));
         Ok(bytes.len() as u64)
