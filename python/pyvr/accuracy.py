@@ -176,16 +176,20 @@ def scene_features(renderer) -> Dict[str, float]:
             "longest_chord": longest_chord(renderer)}
 
 
-def initial_step(features: Dict[str, float], reference_step: float) -> float:
-    """A first guess from sampling theory (Bergner et al. 2006): the signal
-    along a ray is the TF composed with the data, whose bandwidth is at most
-    the data's gradient times the TF's slope; resolve both the voxels and
-    that product, never coarser than the reference step."""
+def tf_limited_step(features: Dict[str, float]) -> float:
+    """The step the transfer function alone asks for (Bergner et al. 2006):
+    the signal along a ray is the TF composed with the data, whose bandwidth
+    is at most the data's gradient times the TF's slope; half a period of
+    that. Infinite where the TF or the data is constant."""
     rate = features["gradient"] * max(features["tf_slope_alpha"], features["tf_slope_color"])
-    h = min(features["spacing"], reference_step)
-    if rate > 0:
-        h = min(h, 0.5 / rate)
-    return max(h, 1e-4)
+    return 0.5 / rate if rate > 0 else float("inf")
+
+
+def initial_step(features: Dict[str, float], reference_step: float) -> float:
+    """A first guess from sampling theory: resolve both the voxels and the
+    TF-limited step (:func:`tf_limited_step`), never coarser than the
+    reference step."""
+    return max(min(features["spacing"], reference_step, tf_limited_step(features)), 1e-4)
 
 
 def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[int] = None,
@@ -212,12 +216,16 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[in
     instead of extrapolating keeps it right where the data has edges and the
     error stops falling as h^2.
 
-    Pre-integrated segments (emission-absorption only) are tried once at
-    1.5 times the midpoint step (above their cost per sample,
-    PREINTEGRATED_COST) and searched further only if that passes: where the
-    transfer function has features narrow against the data's change over a
-    step. Each step they try builds a table (tens of ms on a CPU), so the
-    search takes few.
+    Pre-integrated segments (emission-absorption only) are tried where the
+    transfer function limits the step: where Bergner et al.'s TF-aware step
+    (:func:`tf_limited_step`) is under half the voxel spacing, so that the
+    transfer function's features are narrow against the data's change over
+    a voxel; elsewhere the data limits the step and pre-integration, which
+    only resolves the transfer function, would cost a pipeline and a table
+    for nothing. They are tried once at 1.5 times the midpoint step (above
+    their cost per sample, PREINTEGRATED_COST) and searched further only if
+    that passes. Each step they try builds a table (a few ms for 256
+    entries), so the search takes few.
 
     Early termination: rays stop at opacity 1 - 0.2 * target / 255, which
     bounds what it drops to 0.2 of the target. Jitter stays off: it turns
@@ -288,7 +296,8 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[in
         h_fine /= 2
     pre, h_mid = False, h
     h_pre, err_pre = 0.0, 0.0
-    if cfg.model == "emission_absorption" and 1.5 * h <= longest:
+    tf_limited = tf_limited_step(feats) < 0.5 * feats["spacing"]
+    if cfg.model == "emission_absorption" and tf_limited and 1.5 * h <= longest:
         first = 1.5 * h
         if error(first, True) <= budget:
             h_pre, err_pre = largest_step(first, True, refine=(2**0.5,))
@@ -300,5 +309,6 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[in
         out = cfg.replace(step_size=h, max_steps=int(np.ceil(longest / h)) + 2, pre_integrated=pre, jitter=False,
                           early_ray_termination=threshold < 1.0, opacity_threshold=max(0.0, threshold))
     return out, {"step": h, "pilot_step_error": err, "pilot_fine_step": h_fine, "threshold": threshold,
+                 "tf_limited_step": tf_limited_step(feats),
                  "pre_integrated": pre, "midpoint_step": h_mid, "pre_integrated_step": h_pre,
                  "pilot_renders": len(images), "pilot_size": size, "seconds": time.perf_counter() - started, **feats}
