@@ -271,9 +271,16 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[in
     def error(h, pre):
         return float(np.abs(pilot_image(h, pre) - pilot_image(h_fine)).max() * LEVELS)
 
-    def largest_step(start, pre=False, refine=(2**0.5, 2**0.25)):
+    def largest_step(start, pre=False, refine=(2**0.5, 2**0.25), leap=1, final=True):
         h, err = start, error(start, pre)
         cand, fails = start, 0
+        # A step `leap` times the start first: where it passes, the steps
+        # between would not change the outcome (a pass resets the failures),
+        # and they are the costliest pilots after the reference.
+        if leap > 1 and start * leap <= longest:
+            e = error(start * leap, pre)
+            if e <= budget:
+                h, err, cand = start * leap, e, start * leap
         while cand * 2 <= longest and fails < 2:
             cand *= 2
             e = error(cand, pre)
@@ -281,7 +288,10 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[in
                 fails += 1
             else:
                 h, err, fails = cand, e, 0
-        # Between the last step within the budget and the next one up.
+        # Between the last step within the budget and the next one up
+        # (not when none above the start passed and a finer start follows).
+        if h == start and not final:
+            return h, err
         for f in refine:
             e = error(h * f, pre) if h * f <= longest else np.inf
             if e <= budget:
@@ -290,7 +300,7 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[in
 
     h_fine = max(initial_step(feats, cfg.reference_step_size) / 4, feats["spacing"] / 16)
     for attempt in range(4):
-        h, err = largest_step(h_fine)
+        h, err = largest_step(h_fine, leap=4, final=attempt == 3)
         if h > h_fine or attempt == 3:
             break
         h_fine /= 2
