@@ -208,11 +208,13 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[in
     the target (0.75 when the pilot is the frame itself: the margin covers
     pixels a coarser pilot does not sample, and the maximum error jumps as
     samples shift against features, so one excess alone does not end the
-    search); the last step within it is refined by 2^(1/2) and 2^(1/4).
-    A larger `pilot` buys a closer choice for a longer search (pilot=512
-    searches a 512x512 frame at full size: 20-100 frames' time on the
-    accuracy benchmark's scenes, against 0.7-4.3 at the default). If even the
-    first fails, the fine step is halved and the search repeated. Measuring
+    search); the anchor itself is tried first, since where it passes the
+    steps between change nothing; the last step within the budget is
+    refined by 2^(1/2) and 2^(1/4). A larger `pilot` buys a closer choice
+    for a longer search (pilot=512 searches a 512x512 frame at full size:
+    20-100 frames' time on the accuracy benchmark's scenes). If no step
+    above the reference passes, the fine step is halved and the search
+    repeated (refining only in the last attempt). Measuring
     instead of extrapolating keeps it right where the data has edges and the
     error stops falling as h^2.
 
