@@ -344,7 +344,7 @@ def test_pre_integration_fixes_sharp_tfs_at_the_preview_step():
     e = preint_errors()
     (mid_max, mid_rmse), (pre_max, pre_rmse) = e[False], e[True]
     assert mid_max > 20, "midpoint sampling misses the narrow peaks at this step"
-    # Measured: max 237 -> 17.6 levels, RMSE 9.3 -> 0.80 (the rest is the
+    # Measured: max 237 -> 17.0 levels, RMSE 9.3 -> 0.77 (the rest is the
     # field's curvature within a 1.6-voxel step, which a linear ramp ignores).
     assert pre_max * 5 < mid_max and pre_rmse * 5 < mid_rmse, e
 
