@@ -361,8 +361,8 @@ def test_pre_integration_is_exact_on_a_homogeneous_cube():
 def test_pre_integrated_frames_match_the_float64_integrator(lut_size):
     # A dense field, so that every ray's shorter last segment (midpoint rule) holds material: the
     # shader reads its transfer-function entry from the pre-integration texture's last row, which is
-    # wider than the table (512 entries at most) for 1024 entries. Measured: max 0.37 / 0.06 levels,
-    # mean 0.017 / 0.002; reading the table's last row instead gives 228 / 242 levels.
+    # wider than the table (512 entries at most) for 1024 entries. Measured: max 0.008 / 0.056 levels,
+    # mean 0.0006 / 0.0016; reading the table's last row instead gives 228 / 242 levels.
     z, y, x = np.meshgrid(*[np.linspace(0, 1, 40)] * 3, indexing="ij")
     data = (0.15 + 0.7 * (0.5 + 0.5 * np.sin(5 * x + 3 * y) * np.cos(4 * z))).astype(np.float32)
     vol = Volume(data, None, np.array([-1, -1, -1], np.float32), np.array([1, 1, 1], np.float32))
@@ -374,7 +374,7 @@ def test_pre_integrated_frames_match_the_float64_integrator(lut_size):
         assert len(r.lut) == lut_size
         img = r.render(dtype=np.float32, premultiplied=True).astype(np.float64)
         d = (img - r.render_float64(premultiplied=True)) * 255
-        assert np.abs(d).max() < 1.0 and np.abs(d).mean() < 0.05, (lut_size, step, np.abs(d).max(), np.abs(d).mean())
+        assert np.abs(d).max() < 0.25 and np.abs(d).mean() < 0.01, (lut_size, step, np.abs(d).max(), np.abs(d).mean())
 
 
 # -- config ------------------------------------------------------------------------------
