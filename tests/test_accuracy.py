@@ -141,3 +141,20 @@ def test_config_for_error_pre_integrates_where_it_pays(name):
     assert cfg.pre_integrated == (pred["pre_integrated_step"] > accuracy.PREINTEGRATED_COST * pred["midpoint_step"])
     assert cfg.step_size == (pred["pre_integrated_step"] if cfg.pre_integrated else pred["midpoint_step"])
     assert cfg.pre_integrated == (name == "narrow_peaks"), (name, pred["midpoint_step"], pred["pre_integrated_step"])
+
+
+@pytest.mark.parametrize("name", list(SCENES))
+def test_config_for_error_tries_pre_integration_only_where_the_tf_limits_the_step(name):
+    # Bergner's TF-limited step against the voxels: under half a voxel only
+    # for the narrow peaks; elsewhere no pre-integrated pilot is rendered
+    # (none of the pipeline compilation and table builds it would cost).
+    vol, otf = SCENES[name]()
+    r = make(vol, otf)
+    rendered = []
+    render = r.render
+    r.render = lambda *a, **k: rendered.append(k.get("config")) or render(*a, **k)
+    cfg, pred = accuracy.config_for_error(r, 4.0)
+    limited = pred["tf_limited_step"] < 0.5 * pred["spacing"]
+    assert limited == (name == "narrow_peaks"), (name, pred["tf_limited_step"], pred["spacing"])
+    assert any(c.pre_integrated for c in rendered) == limited
+    assert len(rendered) == pred["pilot_renders"]
