@@ -107,7 +107,7 @@ fn start_integration(r: Ray) -> Integration {
 // call, each chosen by select: llvmpipe runs both sides of a branch under a
 // lane mask whenever any lane takes each side, so fetches in alternative
 // branches would all be paid on every segment (a shorter segment's own
-// transfer-function lookup cost 15-20% of the frame before it moved into
+// transfer-function lookup cost 12-18% of the frame before it moved into
 // the pre-integration texture). A full segment's light is the mean of the
 // light at its two ends (as in the f64 integrator), each computed once from
 // the texel fetched there: normals packed with the values then cost no

@@ -298,7 +298,7 @@ fn float_table(ctx: &GpuContext, rows: &[[f32; 4]], cap: Option<f32>) -> (wgpu::
 /// table, then the transfer-function table `lut` as one more row, so that a
 /// pre-integrated frame reads a shorter segment's midpoint entry from the
 /// same texture as a full segment's, in one fetch chosen by select (a fetch
-/// of its own, in a branch, cost 15-20% of such a frame on lavapipe). Rows
+/// of its own, in a branch, cost 12-18% of such a frame on lavapipe). Rows
 /// are as wide as the wider table; each narrower one repeats its last entry.
 fn with_lut_row(table: &[[f32; 4]], side: usize, lut: &[[f32; 4]]) -> (usize, Vec<[f32; 4]>) {
     let width = side.max(lut.len());
