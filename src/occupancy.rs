@@ -42,6 +42,9 @@ pub struct MinMaxGrid {
     /// where not built).
     pub wide_min: Vec<f32>,
     pub wide_max: Vec<f32>,
+    /// Whether any voxel is NaN (min and max ignore NaN, so a cell's range
+    /// does not say whether a sample in it can be NaN).
+    pub has_nan: bool,
 }
 
 impl MinMaxGrid {
@@ -49,7 +52,9 @@ impl MinMaxGrid {
         // One typed loop per stored format (the same values as
         // `Voxels::value`, NaN included: min/max ignore it).
         match vol.voxels {
-            Voxels::F32(v) => Self::build_from(vol.dims, |i| sanitize(v[i])),
+            Voxels::F32(v) => {
+                MinMaxGrid { has_nan: v.iter().any(|x| x.is_nan()), ..Self::build_from(vol.dims, |i| sanitize(v[i])) }
+            }
             Voxels::U8(v) => Self::build_from(vol.dims, |i| (v[i] as f64 / 255.0) as f32),
             Voxels::U16(v) => Self::build_from(vol.dims, |i| (v[i] as f64 / 65535.0) as f32),
         }
@@ -96,7 +101,7 @@ impl MinMaxGrid {
         }
         let (min, max) = Self::reduce_rows(dims, g, lo2, hi2, 1);
         let (wide_min, wide_max) = Self::reduce_rows(dims, g, wlo2, whi2, wide);
-        MinMaxGrid { dims: g, min, max, wide_min, wide_max }
+        MinMaxGrid { dims: g, min, max, wide_min, wide_max, has_nan: false }
     }
 
     /// The axis-1 and axis-0 sweeps of `build_from` over its (s0, s1, g2)
@@ -147,7 +152,7 @@ impl MinMaxGrid {
                 } else {
                     (self.wide_min.clone(), self.wide_max.clone(), reach)
                 };
-                let wide = MinMaxGrid { dims: self.dims, min, max, wide_min: Vec::new(), wide_max: Vec::new() };
+                let wide = MinMaxGrid { dims: self.dims, min, max, wide_min: Vec::new(), wide_max: Vec::new(), has_nan: self.has_nan };
                 Cow::Owned(wide.widened(reach))
             }
         }
@@ -234,11 +239,47 @@ impl MinMaxGrid {
         })
     }
 
+    /// Per cell, a key above 0 where every sample in the cell takes the
+    /// same colour and opacity above 0 from the table; else 0. That is so
+    /// where the cell holds one value, or where the table's entries are
+    /// equal over the cell's range. Cells of one key take the same colour
+    /// and opacity. A ray may then composite the segments it has in such a
+    /// cell in one step. The ranges ignore NaN: keys of a volume holding any
+    /// mean nothing.
+    pub fn uniform_keys(&self, lut: &[[f32; 4]], map: ValueMap) -> Vec<u32> {
+        let m = lut.len();
+        // First entry of the run of equal entries each one lies in.
+        let mut run = Vec::with_capacity(m);
+        for (i, e) in lut.iter().enumerate() {
+            let start = match run.last() {
+                Some(&prev) if lut[i - 1] == *e => prev,
+                _ => i,
+            };
+            run.push(start);
+        }
+        // Opacity above 0 somewhere in each cell's entries, as `occupancy`.
+        let shows = self.occupancy(lut, map);
+        // Keys 1..=m: runs; above m: single values, one key per value.
+        let runs = self.per_cell(m, map, |i0, i1| if run[i1] <= i0 { run[i1] as u32 + 1 } else { 0 });
+        let mut values = std::collections::HashMap::new();
+        (0..runs.len())
+            .map(|i| match (shows[i], self.min[i] == self.max[i], runs[i]) {
+                (0, _, _) => 0,
+                (_, true, _) => {
+                    let next = m as u32 + 1 + values.len() as u32;
+                    *values.entry(self.min[i].to_bits()).or_insert(next)
+                }
+                (_, false, k) => k,
+            })
+            .collect()
+    }
+
     /// `f(i0, i1)` per cell: the table entries [i0, i1] the cell's mapped
-    /// range touches (0 for cells holding only NaN, or an empty table).
-    fn per_cell(&self, m: usize, map: ValueMap, f: impl Fn(usize, usize) -> u8) -> Vec<u8> {
+    /// range touches (the default for cells holding only NaN, or an empty
+    /// table).
+    fn per_cell<T: Copy + Default>(&self, m: usize, map: ValueMap, f: impl Fn(usize, usize) -> T) -> Vec<T> {
         if m == 0 {
-            return vec![0; self.min.len()];
+            return vec![T::default(); self.min.len()];
         }
         let scale = (m - 1) as f64;
         self.min
@@ -246,7 +287,7 @@ impl MinMaxGrid {
             .zip(&self.max)
             .map(|(&lo, &hi)| {
                 if lo > hi {
-                    return 0; // only NaN voxels
+                    return T::default(); // only NaN voxels
                 }
                 // The device maps in f32: widen a mapped range by a rounding
                 // margin (an identity map is exact, as it always was).
@@ -343,6 +384,45 @@ pub fn empty_radius(occ: &[u8], dims: [usize; 3]) -> Vec<u8> {
     dist.into_iter().map(|r| r.min(cap) as u8).collect()
 }
 
+/// Added to the radius byte of a uniform cell (`uniform_radius`); empty
+/// radii stay below it.
+pub const UNIFORM_FLAG: u8 = 128;
+
+/// Per cell of `keys` (`MinMaxGrid::uniform_keys`), 0 where the key is 0,
+/// else its uniform radius: the largest r (at least 1, at most
+/// MAX_EMPTY_RADIUS) such that the cube of 2r - 1 cells around it holds only
+/// cells of its key, which a ray crosses as one segment. Cells outside the
+/// grid count as its key: rays never sample there.
+pub fn uniform_radius(keys: &[u32], dims: [usize; 3]) -> Vec<u8> {
+    // The smallest and largest key among each cell's 27 neighbours (itself
+    // included), keyless cells left out, one axis at a time.
+    let mut lo: Vec<u32> = keys.iter().map(|&k| if k == 0 { u32::MAX } else { k }).collect();
+    let mut hi = keys.to_vec();
+    for axis in 0..3 {
+        let stride: usize = dims[axis + 1..].iter().product();
+        let len = dims[axis];
+        let (plo, phi) = (lo.clone(), hi.clone());
+        for i in 0..keys.len() {
+            let at = (i / stride) % len;
+            for j in [at.checked_sub(1), (at + 1 < len).then_some(at + 1)].into_iter().flatten() {
+                let n = i - at * stride + j * stride;
+                lo[i] = lo[i].min(plo[n]);
+                hi[i] = hi[i].max(phi[n]);
+            }
+        }
+    }
+    // The radius is the distance to the nearest keyless cell or cell of
+    // another key. The nearest of the latter is one cell past the nearest
+    // keyed cell beside another key, unless a keyless cell comes first.
+    let keyless: Vec<u8> = keys.iter().map(|&k| (k == 0) as u8).collect();
+    let beside: Vec<u8> = keys.iter().enumerate().map(|(i, &k)| (k != 0 && (lo[i] != k || hi[i] != k)) as u8).collect();
+    let (to_keyless, to_beside) = (empty_radius(&keyless, dims), empty_radius(&beside, dims));
+    let cap = MAX_EMPTY_RADIUS as u8;
+    (0..keys.len())
+        .map(|i| if keys[i] == 0 { 0 } else { to_keyless[i].min(to_beside[i] + 1).clamp(1, cap) })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -419,7 +499,7 @@ mod tests {
         let n: usize = dims.iter().product();
         let min: Vec<f32> = (0..n).map(|i| ((i * 37) % 11) as f32).collect();
         let max: Vec<f32> = min.iter().map(|v| v + ((*v as usize * 7) % 5) as f32).collect();
-        let g = MinMaxGrid { dims, min, max, wide_min: Vec::new(), wide_max: Vec::new() };
+        let g = MinMaxGrid { dims, min, max, wide_min: Vec::new(), wide_max: Vec::new(), has_nan: false };
         for reach in [[0, 0, 0], [1, 1, 1], [0, 2, 1], [3, 0, 7]] {
             let w = g.clone().widened(reach);
             let near = |c: usize, k: usize, a: usize| c.abs_diff(k) <= reach[a];
@@ -503,6 +583,69 @@ mod tests {
         g.min = vec![0.41, 0.0];
         g.max = vec![0.42, 0.0];
         assert_eq!(g.occupancy(&step, ValueMap::IDENTITY), vec![1, 0]);
+    }
+
+    #[test]
+    fn uniform_keys_mark_cells_whose_range_takes_one_entry() {
+        let data = vec![0.0f32; 8];
+        let v = VolumeView::new([1, 1, 8], Voxels::F32(&data), None, Bounds::default()).unwrap();
+        let mut g = MinMaxGrid::build(&v);
+        g.dims = [1, 1, 6];
+        // 0.3 exactly, a range inside the plateau 0.6..0.8, one across its
+        // edge, one in the transparent start, one of NaN only, a point value.
+        g.min = vec![0.3, 0.62, 0.55, 0.0, f32::INFINITY, 0.9];
+        g.max = vec![0.3, 0.78, 0.65, 0.05, f32::NEG_INFINITY, 0.9];
+        // Entries at 0.1 apart: opacity 0, 0, 0.1 .. 0.5, then 0.7 on 0.6..0.8.
+        let a = [0.0, 0.0, 0.1, 0.2, 0.3, 0.5, 0.7, 0.7, 0.7, 0.2, 0.2];
+        let lut: Vec<[f32; 4]> = (0..11).map(|i| [0.5, 0.5, 0.5, a[i]]).collect();
+        let keys = g.uniform_keys(&lut, ValueMap::IDENTITY);
+        assert_eq!(keys, vec![12, 7, 0, 0, 0, 13]);
+        // A colour change ends a run as an opacity change does.
+        let mut lut2 = lut.clone();
+        lut2[7][0] = 0.6;
+        assert_eq!(g.uniform_keys(&lut2, ValueMap::IDENTITY)[1], 0);
+        let data = [1.0f32, f32::NAN, 2.0];
+        let v = VolumeView::new([1, 1, 3], Voxels::F32(&data), None, Bounds::default()).unwrap();
+        assert!(MinMaxGrid::build(&v).has_nan);
+        let v = VolumeView::new([1, 1, 3], Voxels::F32(&data[..1]), None, Bounds::default());
+        assert!(v.is_err() || !MinMaxGrid::build(&v.unwrap()).has_nan);
+    }
+
+    #[test]
+    fn uniform_radius_is_the_largest_cube_of_one_key() {
+        // Brute force: keys 1 and 2 in blocks, keyless cells scattered.
+        let dims = [6, 9, 11];
+        let n: usize = dims.iter().product();
+        let at = |i: usize| [i / (9 * 11), (i / 11) % 9, i % 11];
+        let keys: Vec<u32> = (0..n)
+            .map(|i| {
+                let [a, b, c] = at(i);
+                if (a * 7 + b * 3 + c) % 23 == 0 { 0 } else if c < 6 { 1 } else { 2 }
+            })
+            .collect();
+        let r = uniform_radius(&keys, dims);
+        for i in 0..n {
+            let c = at(i).map(|x| x as i64);
+            let mut want = 0;
+            if keys[i] != 0 {
+                want = 1;
+                while want < MAX_EMPTY_RADIUS {
+                    let reach = want as i64;
+                    let ok = (0..n).all(|j| {
+                        let d = at(j).map(|x| x as i64);
+                        let far = (0..3).any(|a| (d[a] - c[a]).abs() > reach);
+                        far || keys[j] == keys[i]
+                    });
+                    if !ok {
+                        break;
+                    }
+                    want += 1;
+                }
+            }
+            assert_eq!(r[i] as usize, want, "cell {:?}", at(i));
+        }
+        // One key everywhere: the cap.
+        assert_eq!(uniform_radius(&[3; 8], [2, 2, 2]), vec![MAX_EMPTY_RADIUS as u8; 8]);
     }
 
     /// The extinction per reference step a code stands for (255: unbounded),
