@@ -194,21 +194,11 @@ fn emitted_colour(x: f32, c: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(0.0);
 }
 
-// The index of the first segment past the empty cell holding midpoint `mid`
-// (a thousandth of a step early, so that rounding can never skip a sample of
-// the next cell), or 0xffffffff when its cell is not empty. For
-// pre-integrated frames the host widens each cell's value range to the cells
-// a segment centred in it can reach, so every segment centred in an empty
-// cell is empty whole, as a midpoint sample is.
-fn leap_past_empty(r: Ray, i: u32, si: u32, mid: f32, tc: vec3<f32>) -> u32 {
-    var dir = r.d;
-    if (BACK_TO_FRONT) {
-        dir = -r.d;
-    }
-    let exit = empty_cell_exit(tc, dir);
-    if (exit < 0.0) {
-        return 0xffffffffu;
-    }
+// The march index of the first segment whose midpoint lies past `exit`
+// (ray parameter from `mid`, in the march's direction), within [i + 1,
+// r.end]: a thousandth of a step early, so that rounding can never skip a
+// sample of the next cell.
+fn segment_past(r: Ray, i: u32, si: u32, mid: f32, exit: f32) -> u32 {
     let h = P.step_size;
     if (BACK_TO_FRONT) {
         // Highest segment whose midpoint lies before the cell's near side.
@@ -218,6 +208,53 @@ fn leap_past_empty(r: Ray, i: u32, si: u32, mid: f32, tc: vec3<f32>) -> u32 {
     }
     let k = ceil((mid + exit) / h - 0.5 - r.shift - 1e-3);
     return u32(clamp(k, f32(i + 1u), f32(r.end)));
+}
+
+// Where segment i (midpoint `mid`, texture coordinate `tc`) may leap: the
+// index of the first segment past the cube around its cell, or 0xffffffff.
+// An empty segment looks for an empty cube; a full segment with extinction
+// for a uniform one. One lookup serves both, so lanes of either kind run it
+// together. For pre-integrated frames the host widens each cell's value
+// range to the cells a segment centred in it can reach, so every segment
+// centred in an empty cell is empty whole, as a midpoint sample is.
+fn cube_leap(r: Ray, i: u32, si: u32, mid: f32, tc: vec3<f32>, empty: bool) -> u32 {
+    var dir = r.d;
+    if (BACK_TO_FRONT) {
+        dir = -r.d;
+    }
+    let exit = cube_exit(tc, dir, !empty);
+    if (exit < 0.0) {
+        return 0xffffffffu;
+    }
+    return segment_past(r, i, si, mid, exit);
+}
+
+// A full segment centred in a uniform cell, taken together with the
+// segments after it whose midpoints lie in the cube of uniform cells around
+// that cell: all have its colour and extinction, so k of them composite as
+// one segment k steps long (the same sums in exact arithmetic, with one
+// fetch). The run stops before the chord's last segment, which may be
+// shorter, and, when the ray may stop early, at the segment where the
+// march one segment at a time would stop. Returns the run's length, 1
+// where the cell is not uniform.
+fn uniform_run(r: Ray, i: u32, next: u32, g: ptr<function, Segment>, trans: f32) -> u32 {
+    var k = f32(min(next, max(r.n, 1u) - 1u)) - f32(i);
+    let x = (*g).x;
+    if (EARLY_TERMINATION && !BACK_TO_FRONT) {
+        // The first j with 1 - trans exp(-j x) >= threshold (inf at threshold 1).
+        k = min(k, max(ceil(log(trans / (1.0 - P.threshold)) / x), 1.0));
+    }
+    if (!(k > 1.0)) {
+        return 1u;
+    }
+    let kx = min(k * x, 1.0e30);
+    var scale = k;
+    if (MODEL != MODEL_EMISSION) {
+        scale = one_minus_exp_neg(kx) / one_minus_exp_neg(x);
+    }
+    (*g).x = kx;
+    (*g).add *= scale;
+    return u32(k);
 }
 
 // The emitted colour scaled by the light reaching the segment's midpoint p
@@ -335,18 +372,24 @@ fn march_integrate(r: Ray) {
         }
         // A segment that only fetched its near value may leap too: centred
         // in an empty cell, it is empty whatever its values.
-        if (SKIP_EMPTY && !(g.x > 0.0)) {
-            let next = leap_past_empty(r, i, si, mid, tc);
-            if (next != 0xffffffffu) {
+        let empty = !(g.x > 0.0);
+        var run = 0xffffffffu;
+        if ((SKIP_EMPTY && empty) || (UNIFORM_CELLS && !empty && sp.y == P.step_size)) {
+            let next = cube_leap(r, i, si, mid, tc, empty);
+            if (empty && next != 0xffffffffu) {
                 i = next - 1u;
                 continue;
             }
+            run = next;
         }
         if (again) {
             // The same segment again, now with its near value (u32
             // arithmetic wraps, so i = 0 comes back to 0).
             i -= 1u;
             continue;
+        }
+        if (UNIFORM_CELLS && run != 0xffffffffu) {
+            i += uniform_run(r, i, run, &g, s.trans) - 1u;
         }
         let add = lit(g, p, r.d, &taken);
         if (composite(&s, g.x, add, taken)) {

@@ -29,3 +29,5 @@ override NORMALS_IN_VOLUME: bool = false;
 
 // Skip cells of the occupancy grid that the transfer function leaves empty.
 override SKIP_EMPTY: bool = true;
+// Composite the segments in a cube of uniform cells as one segment.
+override UNIFORM_CELLS: bool = false;

@@ -20,10 +20,19 @@ fn cell_of(u: vec3<f32>) -> vec3<i32> {
 // of 2r - 1 cells a side (cells past the grid's faces hold no voxels, so the
 // cube may reach past them).
 fn empty_cell_exit(tc: vec3<f32>, d: vec3<f32>) -> f32 {
+    return cube_exit(tc, d, false);
+}
+
+// The same for the empty cube (`uniform` false) or for the cube of cells of
+// one colour and opacity around a uniform cell (g = UNIFORM_FLAG + its
+// radius; -1 if the cell is not uniform).
+fn cube_exit(tc: vec3<f32>, d: vec3<f32>, uniform: bool) -> f32 {
     let dims = vec3<f32>(textureDimensions(volume));
     let u = voxel_coords(tc);
     let c0 = cell_of(u);
-    let radius = i32(textureLoad(occupancy, c0, 0).g);
+    let code = textureLoad(occupancy, c0, 0).g;
+    let flagged = code >= UNIFORM_FLAG;
+    let radius = i32(select(select(0u, code, !flagged), select(0u, code - UNIFORM_FLAG, flagged), uniform));
     if (radius == 0) {
         return -1.0;
     }
@@ -31,14 +40,10 @@ fn empty_cell_exit(tc: vec3<f32>, d: vec3<f32>) -> f32 {
     let hi = vec3<f32>(c0 + radius) * CELL;
     // Voxel units per unit of t along the ray, in texture axis order (the
     // scale maps the box to the texels inside any border).
+    // Branch-free: lavapipe runs every side of a branch some lane takes.
     let du = (d * P.tex_scale.xyz).zyx * dims;
-    var exit = 3.0e38;
-    for (var a = 0; a < 3; a++) {
-        if (du[a] > 0.0) {
-            exit = min(exit, (hi[a] - u[a]) / du[a]);
-        } else if (du[a] < 0.0) {
-            exit = min(exit, (lo[a] - u[a]) / du[a]);
-        }
-    }
-    return max(exit, 0.0);
+    let moving = du != vec3<f32>(0.0);
+    let t = (select(lo, hi, du > vec3<f32>(0.0)) - u) / select(vec3<f32>(1.0), du, moving);
+    let ta = select(vec3<f32>(3.0e38), t, moving);
+    return max(min(ta.x, min(ta.y, ta.z)), 0.0);
 }

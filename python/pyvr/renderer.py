@@ -664,7 +664,9 @@ class VolumeRenderer:
     def empty_space_skipping(self) -> bool:
         """Leap over 8x8x8-voxel cells the transfer function leaves fully
         transparent (default True). Only samples of opacity exactly 0 are
-        skipped, so images do not change; turn off to measure the saving."""
+        skipped, so images do not change; turn off to measure the saving.
+        The same switch lets unlit frames take runs through uniform cells as
+        one segment (see ``uniform_fraction``)."""
         return self._engine.skip_empty
 
     @empty_space_skipping.setter
@@ -676,6 +678,18 @@ class VolumeRenderer:
     def empty_fraction(self) -> float:
         """Fraction of the volume's cells the current transfer function leaves empty."""
         return self._engine.empty_fraction()
+
+    @_serialised
+    def uniform_fraction(self) -> float:
+        """Fraction of the visible cells that are uniform: every sample in
+        them takes one colour and opacity (a constant region, or values where
+        the transfer function is flat). With ``empty_space_skipping`` on,
+        unlit frames of the Beer-Lambert models (emission-absorption,
+        absorption, emission, single scattering) composite
+        a ray's run through such cells as one segment, with the same image.
+        0 where the volume holds NaN, and after a pre-integrated or unbiased
+        frame whose cells were built over whole segments' ranges."""
+        return self._engine.uniform_fraction()
 
     @property
     def device(self) -> str:

@@ -42,6 +42,9 @@ pub struct Variant {
     /// Unbiased segments take their occupancy cell's rate (set by the frame,
     /// where the transfer function's largest extinction tops a point a step).
     pub cell_rates: bool,
+    /// Segments in a cube of uniform cells are composited as one (set by
+    /// the frame, where enough cells are uniform).
+    pub uniform_cells: bool,
 }
 
 /// Whether rays march from the far end: only where the order changes the
@@ -78,10 +81,21 @@ impl Variant {
             pre_integrated: cfg.pre_integrates(),
             unbiased: cfg.unbiased && model.integrates() && model != Model::SingleScattering,
             cell_rates: false,
+            uniform_cells: false,
         }
     }
 
-    fn constants(&self) -> [(&'static str, f64); 13] {
+    /// Whether this variant may composite a cube of uniform cells as one
+    /// segment and get the same image: midpoint segments whose colour and
+    /// extinction come from the table alone (no normals, no shadow rays).
+    pub fn can_leap_uniform(&self) -> bool {
+        self.model.integrates()
+            && self.shading == Shading::AmbientOnly
+            && !self.pre_integrated
+            && !self.unbiased
+    }
+
+    fn constants(&self) -> [(&'static str, f64); 14] {
         [
             ("SHADING", self.shading.code() as f64),
             ("POINT_LIGHT", self.point_light as u32 as f64),
@@ -96,6 +110,7 @@ impl Variant {
             ("PRE_INTEGRATED", self.pre_integrated as u32 as f64),
             ("UNBIASED", self.unbiased as u32 as f64),
             ("CELL_RATES", self.cell_rates as u32 as f64),
+            ("UNIFORM_CELLS", self.uniform_cells as u32 as f64),
         ]
     }
 }

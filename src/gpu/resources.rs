@@ -7,7 +7,7 @@ use super::context::GpuContext;
 use crate::error::Error;
 use super::half::{f16_to_f32, f32_to_f16};
 use crate::config::OpacityCorrection;
-use crate::occupancy::{empty_radius, MinMaxGrid, SegmentRanges};
+use crate::occupancy::{empty_radius, MinMaxGrid, SegmentRanges, UNIFORM_FLAG};
 use crate::gradients;
 use crate::preintegrate;
 use crate::scene::Bounds;
@@ -395,7 +395,9 @@ pub enum OccSource {
 /// one texel per 8^3 voxels: r is 0 where the cell is empty (else its
 /// majorant code), g its empty radius (`occupancy::empty_radius`), so that
 /// a ray in empty space leaves the whole empty cube around its cell in one
-/// leap from one fetch.
+/// leap from one fetch; or, for a uniform cell, UNIFORM_FLAG + its uniform
+/// radius, so that a ray composites the cube of one colour and opacity
+/// around it as one segment.
 pub struct Occupancy {
     pub view: Option<wgpu::TextureView>,
     /// What the grid was built from.
@@ -404,18 +406,40 @@ pub struct Occupancy {
     /// worth its cost (its branch slows dense scenes by ~20% on lavapipe);
     /// at 1 no ray needs marching.
     pub empty_fraction: f64,
+    /// Fraction of the occupied cells that are uniform (0 where not built).
+    pub uniform_fraction: f64,
 }
 
 impl Occupancy {
     pub fn new() -> Occupancy {
-        Occupancy { view: None, source: None, empty_fraction: 0.0 }
+        Occupancy { view: None, source: None, empty_fraction: 0.0, uniform_fraction: 0.0 }
     }
 
     /// Uploads the grid `occ` (0 = empty) of `grid`'s cells, built from
     /// `source`. Returns the bytes written.
-    pub fn upload(&mut self, ctx: &GpuContext, grid: &MinMaxGrid, occ: &[u8], source: OccSource) -> Result<u64, Error> {
+    /// `uniform`: each cell's uniform radius (`occupancy::uniform_radius`),
+    /// where the frames this grid serves may composite uniform cells whole.
+    pub fn upload(
+        &mut self,
+        ctx: &GpuContext,
+        grid: &MinMaxGrid,
+        occ: &[u8],
+        uniform: Option<&[u8]>,
+        source: OccSource,
+    ) -> Result<u64, Error> {
         let [g0, g1, g2] = grid.dims;
-        let radius = empty_radius(occ, grid.dims);
+        let mut radius = empty_radius(occ, grid.dims);
+        let occupied = occ.iter().filter(|&&o| o != 0).count();
+        self.uniform_fraction = 0.0;
+        if let Some(uniform) = uniform {
+            // Occupied cells have empty radius 0: the byte holds one or the other.
+            for (r, &u) in radius.iter_mut().zip(uniform) {
+                if u > 0 {
+                    *r = UNIFORM_FLAG + u;
+                }
+            }
+            self.uniform_fraction = uniform.iter().filter(|&&u| u > 0).count() as f64 / occupied.max(1) as f64;
+        }
         let data: Vec<u8> = occ.iter().zip(&radius).flat_map(|(&o, &r)| [o, r]).collect();
         let size = wgpu::Extent3d { width: g2 as u32, height: g1 as u32, depth_or_array_layers: g0 as u32 };
         let rg8 = wgpu::TextureFormat::Rg8Uint;

@@ -6,7 +6,7 @@
 use super::bindings;
 use crate::integrate::SHADOW_TAU_MAX;
 use crate::model::Model;
-use crate::occupancy::BLOCK;
+use crate::occupancy::{BLOCK, UNIFORM_FLAG};
 use crate::scene::Shading;
 use std::fmt::Write;
 
@@ -45,6 +45,8 @@ pub fn prelude() -> String {
     }
     let _ = writeln!(s, "// Voxels per occupancy cell along each axis.");
     let _ = writeln!(s, "const CELL: f32 = {:.1};", BLOCK as f64);
+    let _ = writeln!(s, "// Added to a uniform cell's radius in the occupancy texels' g.");
+    let _ = writeln!(s, "const UNIFORM_FLAG: u32 = {UNIFORM_FLAG}u;");
     let _ = writeln!(s, "// A shadow ray stops once its optical depth passes this (light below e^-16).");
     let _ = writeln!(s, "const SHADOW_TAU_MAX: f32 = {SHADOW_TAU_MAX:.1};");
     let _ = writeln!(s, "// Bisections that bracket an isosurface crossing.");

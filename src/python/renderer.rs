@@ -377,6 +377,13 @@ impl PyRenderer {
         self.inner.empty_fraction()
     }
 
+    /// Fraction of the cells the table can show that are uniform: every
+    /// sample in them takes one colour and opacity (0 where the last grid
+    /// built has none, or the volume holds NaN).
+    fn uniform_fraction(&self) -> f64 {
+        self.inner.uniform_fraction()
+    }
+
     /// The last frame's isosurface hit distances as float32 (H, W), row 0 at
     /// the bottom, inf where no surface was hit; None unless the last frame
     /// used the isosurface model.

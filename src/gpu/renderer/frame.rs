@@ -1,6 +1,6 @@
 //! A renderer's frame: check, plan, bind, dispatch, read back.
 
-use super::{Ends, FrameStats, GpuRenderer, Rect, SKIP_MIN_EMPTY, STATS_BYTES};
+use super::{Ends, FrameStats, GpuRenderer, Rect, LEAP_MIN_UNIFORM, SKIP_MIN_EMPTY, STATS_BYTES};
 use crate::config::RenderConfig;
 use crate::gpu::bindings;
 use crate::error::{try_vec, Error};
@@ -8,7 +8,8 @@ use crate::gpu::params::{world_unit, FrameInputs, Params};
 use crate::gpu::pipeline::{Layout, Variant, WORKGROUP};
 use crate::gpu::plan::{plan, PassPlan};
 use crate::gpu::readback::read_buffers;
-use crate::gpu::resources::{readback_buffer, PreintKey, RayState};
+use crate::gpu::resources::{readback_buffer, OccSource, PreintKey, RayState};
+use crate::occupancy::SegmentRanges;
 use crate::integrate::max_extinction;
 use crate::model::Model;
 use crate::scene::{Camera, Light, Shading};
@@ -155,6 +156,10 @@ impl GpuRenderer {
         let pixels = self.width as u64 * self.height as u64;
         let points = self.points_per_step(cfg);
         variant.cell_rates = variant.unbiased && self.cell_rates(cfg);
+        variant.uniform_cells = self.skip_empty
+            && variant.can_leap_uniform()
+            && self.occupancy.uniform_fraction >= LEAP_MIN_UNIFORM
+            && matches!(self.occupancy.source, Some(OccSource::Lut { ranges: SegmentRanges::Plain, .. }));
         let passes = plan(cfg, &vol.bounds, camera.position, shadow_rays, points, pixels, self.pass_samples())?;
         if passes.per_pixel_state && self.frame.ray_state.pixels < pixels {
             let limit = self.ctx.max_storage_bytes();
