@@ -139,3 +139,15 @@ def test_bricks_take_runs_within_their_own_segments(order):
     assert r.bricks["count"] == 3 * 3 * 3
     assert close(plain, leapt)
     assert n_leapt < 0.8 * n_plain, (n_plain, n_leapt)
+
+
+def test_the_switch_turns_runs_off_alone():
+    # The label map has no empty cell: without runs every segment is marched.
+    (plain, n_plain, r), _ = pair(labels)
+    r.empty_space_skipping = True
+    r.uniform_runs = False
+    assert close(plain, frame(r)) and r.last_frame_stats["samples"] == n_plain
+    r.uniform_runs = True
+    assert r.uniform_runs and r.last_frame_stats["samples"] == n_plain
+    frame(r)
+    assert r.last_frame_stats["samples"] < 0.7 * n_plain

@@ -372,6 +372,16 @@ impl PyRenderer {
         self.inner.skip_empty = on;
     }
 
+    /// With skip_empty: composite runs through uniform cells as one segment (default on).
+    #[getter]
+    fn get_uniform_runs(&self) -> bool {
+        self.inner.uniform_runs
+    }
+    #[setter]
+    fn set_uniform_runs(&mut self, on: bool) {
+        self.inner.uniform_runs = on;
+    }
+
     /// Fraction of the volume's 8^3-voxel cells the current transfer function leaves empty.
     fn empty_fraction(&self) -> f64 {
         self.inner.empty_fraction()

@@ -157,6 +157,7 @@ impl GpuRenderer {
         let points = self.points_per_step(cfg);
         variant.cell_rates = variant.unbiased && self.cell_rates(cfg);
         variant.uniform_cells = self.skip_empty
+            && self.uniform_runs
             && variant.can_leap_uniform()
             && self.occupancy.uniform_fraction >= LEAP_MIN_UNIFORM
             && matches!(self.occupancy.source, Some(OccSource::Lut { ranges: SegmentRanges::Plain, .. }));

@@ -88,6 +88,8 @@ pub struct GpuRenderer {
     clip: Option<Bounds>,
     /// Leap over empty cells (on by default; off to measure what it saves).
     pub skip_empty: bool,
+    /// With `skip_empty`: composite runs through uniform cells as one segment.
+    pub uniform_runs: bool,
     /// Interpolate in the shader even when the format could be filtered
     /// (the path used without FLOAT32_FILTERABLE); for tests and comparisons.
     pub shader_filtering: bool,
@@ -174,6 +176,7 @@ impl GpuRenderer {
             value_map: ValueMap::IDENTITY,
             clip: None,
             skip_empty: true,
+            uniform_runs: true,
             shader_filtering: false,
             bind_group: None,
             depth_ready: false,
