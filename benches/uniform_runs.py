@@ -1,7 +1,7 @@
 """Uniform runs: frames with runs through uniform cells taken as one segment
 (``renderer.uniform_runs``, the default) against the same frames marched
 one segment at a time through them (empty cells are leapt in both), on
-scenes made of constant regions: the 256^3 Shepp-Logan phantom under the
+scenes made of constant regions in [-1, 1]^3: the 256^3 Shepp-Logan phantom under the
 accuracy benchmark's transfer function, and a 256^3 uint8 label map (four
 labelled ellipsoids in a labelled background, every label visible, so no
 cell is empty). Ambient light (runs need colour and opacity from the table
@@ -34,6 +34,7 @@ from pyvr.transferfunctions import ColorTransferFunction, OpacityTransferFunctio
 from pyvr.volume import Volume  # noqa: E402
 
 STEPS = [0.0025, 0.005, 0.01, 0.02, 0.04]
+BOX = (np.full(3, -1.0, np.float32), np.full(3, 1.0, np.float32))
 
 
 def label_map(n):
@@ -50,11 +51,11 @@ def label_map(n):
 
 def scenes():
     shepp_otf = OpacityTransferFunction([(0.0, 0.0), (0.15, 0.0), (0.25, 0.02), (0.35, 0.3), (1.0, 0.05)])
-    yield "Shepp-Logan", Volume(shepp_logan_3d(256)), ColorTransferFunction.from_colormap("bone"), shepp_otf
+    yield "Shepp-Logan", Volume(shepp_logan_3d(256), None, *BOX), ColorTransferFunction.from_colormap("bone"), shepp_otf
     ctf = ColorTransferFunction([(0.0, (0.2, 0.3, 0.9)), (0.25, (0.9, 0.2, 0.1)), (0.5, (0.1, 0.8, 0.2)),
                                  (0.75, (0.9, 0.9, 0.2)), (1.0, (1.0, 1.0, 1.0))])
     otf = OpacityTransferFunction([(0.0, 0.002), (0.25, 0.01), (0.5, 0.03), (0.75, 0.2), (1.0, 0.5)])
-    yield "label map (uint8)", Volume(label_map(256)), ctf, otf
+    yield "label map (uint8)", Volume(label_map(256), None, *BOX), ctf, otf
 
 
 def main() -> None:
