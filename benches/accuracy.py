@@ -59,8 +59,6 @@ BOX = (np.full(3, -1.0, np.float32), np.full(3, 1.0, np.float32))
 PRESETS = ["preview", "fast", "balanced", "high_quality", "ultra_quality"]
 SWEEP = [0.0025, 0.005, 0.007, 0.01, 0.014, 0.02, 0.028, 0.04, 0.057, 0.08, 0.113, 0.16]
 VTK_SWEEP = [0.01, 0.02, 0.04, 0.08]
-# VTK's errors are taken against its own image at this step (in SWEEP).
-VTK_FINEST = VTK_SWEEP[0] / 2
 TARGETS = [1.0, 4.0]
 
 
@@ -124,29 +122,17 @@ def run_scene(scene, frames, use_reference):
         samples = r.last_frame_stats["samples"]
         res["points"].append({"engine": engine, "kind": kind, "label": label, "step": cfg.step_size, "ms": ms,
                               "samples_per_s": samples / ms * 1e3, **accuracy.error_metrics(img, conv)})
-        return img
 
     def sweep(engine="pyvr", **fields):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             for h in SWEEP:
                 cfg = RenderConfig(step_size=h, max_steps=int(3.5 / h) + 2, early_ray_termination=False)
-                images[h] = ours(f"step {h}", cfg.replace(**fields), "sweep", engine)
-
-    def self_error(points):
-        # Each plain sweep frame against our own at VTK's finest step, as
-        # VTK's errors are measured (against its image there, since its
-        # images do not converge on every scene).
-        for p in points:
-            if p["step"] > VTK_FINEST:
-                p["self_max"] = accuracy.error_metrics(images[p["step"]], images[VTK_FINEST])["max"]
-
-    images = {}
+                ours(f"step {h}", cfg.replace(**fields), "sweep", engine)
 
     for p in PRESETS:
         ours(p, getattr(RenderConfig, p)(), "preset")
     sweep()
-    self_error(res["points"][-len(SWEEP):])
     sweep("pyvr-preint", pre_integrated=True)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -214,7 +200,7 @@ def run_vtk(scene, lut, res, frames):
     for kind in ("cpu", "gpu"):
         peer = VtkPeer(kind, vol, lut, cam, light, (px, px), RenderConfig().reference_step_size)
         try:
-            finest = peer.render(VTK_FINEST)
+            finest = peer.render(VTK_SWEEP[0] / 2)
             for h in VTK_SWEEP:
                 img, ms = timed(lambda: peer.render(h), frames)
                 m = accuracy.error_metrics(img, finest)
@@ -224,8 +210,8 @@ def run_vtk(scene, lut, res, frames):
             peer.release()
 
 
-def cheapest_at(points, max_error, key="max"):
-    ok = [p for p in points if p["engine"].startswith("pyvr") and p.get(key, np.inf) <= max_error]
+def cheapest_at(points, max_error):
+    ok = [p for p in points if p["engine"].startswith("pyvr") and p["max"] <= max_error]
     return min(ok, key=lambda p: p["ms"]) if ok else None
 
 
@@ -276,10 +262,8 @@ def write_tables(results, command, device):
                                 f"{p['pilot_renders']} pilots"])
             if p["engine"].startswith("vtk"):
                 best = cheapest_at(pts, p["max"])
-                alike = cheapest_at(pts, p["max"], key="self_max")
                 peers.append([res["scene"], p["engine"], f"{p['step']:g}", f"{p['ms']:.0f}", f"{p['max']:.0f}",
-                              f"{short(best)}, {p['ms'] / best['ms']:.1f}x" if best else "",
-                              f"{short(alike)}, {p['ms'] / alike['ms']:.1f}x" if alike else ""])
+                              f"{short(best)}, {p['ms'] / best['ms']:.1f}x" if best else ""])
         if any(p["engine"] == "pyvr-f16" for p in pts):
             for label, r in ref.items():
                 row = [res["scene"], label, f"{r['ms']:.0f}", f"{r['max']:.1f}"]
@@ -311,10 +295,7 @@ def write_tables(results, command, device):
     if peers:
         write_table("accuracy_vtk", command,
                     ["scene", "peer", "sample distance", "ms", "max err vs own finest", "pyvr at <= that error: "
-                     "config, ms, peer / pyvr", f"the same, pyvr's error also against its own image at step "
-                     f"{VTK_FINEST:g}"], peers, device=device,
-                    note=errors + f" Last column: both engines' errors measured alike, each against its own image "
-                    f"at step {VTK_FINEST:g} (our plain sweep steps above it).")
+                     "config, ms, peer / pyvr"], peers, device=device, note=errors)
 
 
 def plot(results, path):
