@@ -698,9 +698,9 @@ class VolumeRenderer:
         the transfer function is flat). With ``empty_space_skipping`` on,
         unlit frames of the Beer-Lambert models (emission-absorption,
         absorption, emission, single scattering) composite
-        a ray's run through such cells as one segment, with the same image.
-        0 where the volume holds NaN, and after a pre-integrated or unbiased
-        frame whose cells were built over whole segments' ranges."""
+        a ray's run through such cells as one segment, with the same image
+        (pre-integrated frames too: their cells are then judged over the
+        values of whole segments). 0 where the volume holds NaN."""
         return self._engine.uniform_fraction()
 
     @property

@@ -86,13 +86,11 @@ impl Variant {
     }
 
     /// Whether this variant may composite a cube of uniform cells as one
-    /// segment and get the same image: midpoint segments whose colour and
-    /// extinction come from the table alone (no normals, no shadow rays).
+    /// segment and get the same image: segments (midpoint or pre-integrated)
+    /// whose colour and extinction come from the table alone (no normals,
+    /// no shadow rays).
     pub fn can_leap_uniform(&self) -> bool {
-        self.model.integrates()
-            && self.shading == Shading::AmbientOnly
-            && !self.pre_integrated
-            && !self.unbiased
+        self.model.integrates() && self.shading == Shading::AmbientOnly && !self.unbiased
     }
 
     fn constants(&self) -> [(&'static str, f64); 14] {

@@ -8,8 +8,7 @@ use crate::gpu::params::{world_unit, FrameInputs, Params};
 use crate::gpu::pipeline::{Layout, Variant, WORKGROUP};
 use crate::gpu::plan::{plan, PassPlan};
 use crate::gpu::readback::read_buffers;
-use crate::gpu::resources::{readback_buffer, OccSource, PreintKey, RayState};
-use crate::occupancy::SegmentRanges;
+use crate::gpu::resources::{readback_buffer, PreintKey, RayState};
 use crate::integrate::max_extinction;
 use crate::model::Model;
 use crate::scene::{Camera, Light, Shading};
@@ -159,8 +158,7 @@ impl GpuRenderer {
         variant.uniform_cells = self.skip_empty
             && self.uniform_runs
             && variant.can_leap_uniform()
-            && self.occupancy.uniform_fraction >= LEAP_MIN_UNIFORM
-            && matches!(self.occupancy.source, Some(OccSource::Lut { ranges: SegmentRanges::Plain, .. }));
+            && self.occupancy.uniform_fraction >= LEAP_MIN_UNIFORM;
         let passes = plan(cfg, &vol.bounds, camera.position, shadow_rays, points, pixels, self.pass_samples())?;
         if passes.per_pixel_state && self.frame.ray_state.pixels < pixels {
             let limit = self.ctx.max_storage_bytes();

@@ -377,11 +377,13 @@ impl GpuRenderer {
             }
             OccSource::Below(bits) => vol.grid.occupancy_reaching(f64::from_bits(bits), self.value_map),
         };
-        // Midpoint frames read a sample's cell over its own range; keys
-        // over ranges that ignore NaN would be wrong where a sample is NaN.
+        // Over the same ranges as the majorants: a segment centred in a
+        // uniform cell is uniform whole. Keys over ranges that ignore NaN
+        // would be wrong where a sample is NaN.
         let uniform = match source {
-            OccSource::Lut { ranges: SegmentRanges::Plain, .. } if !vol.grid.has_nan => {
-                Some(uniform_radius(&vol.grid.uniform_keys(&self.tables.rows, self.value_map), vol.grid.dims))
+            OccSource::Lut { ranges, .. } if !vol.grid.has_nan => {
+                let grid = vol.grid.for_segments(ranges);
+                Some(uniform_radius(&grid.uniform_keys(&self.tables.rows, self.value_map), grid.dims))
             }
             _ => None,
         };
