@@ -152,7 +152,8 @@ impl MinMaxGrid {
                 } else {
                     (self.wide_min.clone(), self.wide_max.clone(), reach)
                 };
-                let wide = MinMaxGrid { dims: self.dims, min, max, wide_min: Vec::new(), wide_max: Vec::new(), has_nan: self.has_nan };
+                let (wide_min, wide_max) = (Vec::new(), Vec::new());
+                let wide = MinMaxGrid { dims: self.dims, min, max, wide_min, wide_max, has_nan: self.has_nan };
                 Cow::Owned(wide.widened(reach))
             }
         }
