@@ -118,7 +118,7 @@ def test_jittered_frames_take_runs_too():
 
 def test_lit_frames_and_nan_volumes_march_every_segment():
     # Lit: the light follows each sample's gradient (noise of a few ulps in
-    # a constant region turns into a full normal), so no run is composited.
+    # a constant region would be a full normal), so no run is composited.
     (plain, n_plain, _), (leapt, n_leapt, r) = pair(labels, light=Light.default())
     assert r.uniform_fraction() > 0.25 and n_leapt == n_plain
     assert close(plain, leapt)
