@@ -246,8 +246,9 @@ impl MinMaxGrid {
     /// equal over the cell's range. Cells of one key take the same colour
     /// and opacity. A ray may then composite the segments it has in such a
     /// cell in one step. The ranges ignore NaN: keys of a volume holding any
-    /// mean nothing.
-    pub fn uniform_keys(&self, lut: &[[f32; 4]], map: ValueMap) -> Vec<u32> {
+    /// mean nothing. `visible`: 0 for the cells `occupancy` (or `majorants`)
+    /// leaves empty.
+    pub fn uniform_keys(&self, lut: &[[f32; 4]], map: ValueMap, visible: &[u8]) -> Vec<u32> {
         let m = lut.len();
         // First entry of the run of equal entries each one lies in.
         let mut run = Vec::with_capacity(m);
@@ -258,13 +259,11 @@ impl MinMaxGrid {
             };
             run.push(start);
         }
-        // Opacity above 0 somewhere in each cell's entries, as `occupancy`.
-        let shows = self.occupancy(lut, map);
         // Keys 1..=m: runs; above m: single values, one key per value.
         let runs = self.per_cell(m, map, |i0, i1| if run[i1] <= i0 { run[i1] as u32 + 1 } else { 0 });
         let mut values = std::collections::HashMap::new();
         (0..runs.len())
-            .map(|i| match (shows[i], self.min[i] == self.max[i], runs[i]) {
+            .map(|i| match (visible[i], self.min[i] == self.max[i], runs[i]) {
                 (0, _, _) => 0,
                 (_, true, _) => {
                     let next = m as u32 + 1 + values.len() as u32;
@@ -599,12 +598,12 @@ mod tests {
         // Entries at 0.1 apart: opacity 0, 0, 0.1 .. 0.5, then 0.7 on 0.6..0.8.
         let a = [0.0, 0.0, 0.1, 0.2, 0.3, 0.5, 0.7, 0.7, 0.7, 0.2, 0.2];
         let lut: Vec<[f32; 4]> = (0..11).map(|i| [0.5, 0.5, 0.5, a[i]]).collect();
-        let keys = g.uniform_keys(&lut, ValueMap::IDENTITY);
+        let keys = g.uniform_keys(&lut, ValueMap::IDENTITY, &g.occupancy(&lut, ValueMap::IDENTITY));
         assert_eq!(keys, vec![12, 7, 0, 0, 0, 13]);
         // A colour change ends a run as an opacity change does.
         let mut lut2 = lut.clone();
         lut2[7][0] = 0.6;
-        assert_eq!(g.uniform_keys(&lut2, ValueMap::IDENTITY)[1], 0);
+        assert_eq!(g.uniform_keys(&lut2, ValueMap::IDENTITY, &g.occupancy(&lut2, ValueMap::IDENTITY))[1], 0);
         let data = [1.0f32, f32::NAN, 2.0];
         let v = VolumeView::new([1, 1, 3], Voxels::F32(&data), None, Bounds::default()).unwrap();
         assert!(MinMaxGrid::build(&v).has_nan);

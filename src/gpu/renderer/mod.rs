@@ -373,21 +373,20 @@ impl GpuRenderer {
         if self.occupancy.source == Some(source) {
             return Ok(());
         }
-        let occ = match source {
+        let (occ, uniform) = match source {
             OccSource::Lut { ranges, form, .. } => {
-                vol.grid.for_segments(ranges).majorants(&self.tables.rows, self.value_map, form)
-            }
-            OccSource::Below(bits) => vol.grid.occupancy_reaching(f64::from_bits(bits), self.value_map),
-        };
-        // Over the same ranges as the majorants: a segment centred in a
-        // uniform cell is uniform whole. Keys over ranges that ignore NaN
-        // would be wrong where a sample is NaN.
-        let uniform = match source {
-            OccSource::Lut { ranges, .. } if !vol.grid.has_nan => {
                 let grid = vol.grid.for_segments(ranges);
-                Some(uniform_radius(&grid.uniform_keys(&self.tables.rows, self.value_map), grid.dims))
+                let occ = grid.majorants(&self.tables.rows, self.value_map, form);
+                // Over the same ranges as the majorants: a segment centred in
+                // a uniform cell is uniform whole. Keys over ranges that
+                // ignore NaN would be wrong where a sample is NaN.
+                let uniform = (!vol.grid.has_nan).then(|| {
+                    let keys = grid.uniform_keys(&self.tables.rows, self.value_map, &occ);
+                    uniform_radius(&keys, grid.dims)
+                });
+                (occ, uniform)
             }
-            _ => None,
+            OccSource::Below(bits) => (vol.grid.occupancy_reaching(f64::from_bits(bits), self.value_map), None),
         };
         self.pending_upload += self.occupancy.upload(&self.ctx, &vol.grid, &occ, uniform.as_deref(), source)?;
         self.bind_group = None;
