@@ -5,9 +5,10 @@
 // too), each sampled at its midpoint and weighted by its own length.
 
 @compute @workgroup_size(8, 8, 1)
-fn main(@builtin(global_invocation_id) global_id: vec3<u32>) {
+fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>,
+        @builtin(num_workgroups) groups: vec3<u32>) {
     // A brick's dispatch covers only the pixels its box can cover.
-    let gid = global_id.xy + vec2<u32>(P.tile_x, P.tile_y);
+    let gid = group_origin(wg.xy, groups.x) + lid.xy + vec2<u32>(P.tile_x, P.tile_y);
     if (gid.x >= P.width || gid.y >= P.height) {
         return;
     }
@@ -94,6 +95,22 @@ fn main(@builtin(global_invocation_id) global_id: vec3<u32>) {
     } else {
         march_integrate(r);
     }
+}
+
+// The first pixel of workgroup `wg` of a dispatch `groups_x` workgroups
+// wide (a multiple of GROUP_TILE). A CPU device runs workgroups in the order
+// of their index, x fastest; consecutive indices here cover tiles of
+// GROUP_TILE x GROUP_TILE workgroups, row by row within a tile and tile by
+// tile, instead of rows of the whole image, so that the rays marched close
+// in time cross nearby voxels, which are then still in the caches.
+fn group_origin(wg: vec2<u32>, groups_x: u32) -> vec2<u32> {
+    let index = wg.x + wg.y * groups_x;
+    let per_tile = GROUP_TILE * GROUP_TILE;
+    let tile = index / per_tile;
+    let within = index % per_tile;
+    let tiles_x = groups_x / GROUP_TILE;
+    let group = vec2<u32>(tile % tiles_x, tile / tiles_x) * GROUP_TILE + vec2<u32>(within % GROUP_TILE, within / GROUP_TILE);
+    return group * 8u;
 }
 
 // A brick holds the segments whose nominal midpoints (i + shift + 1/2) steps

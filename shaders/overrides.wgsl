@@ -31,3 +31,6 @@ override NORMALS_IN_VOLUME: bool = false;
 override SKIP_EMPTY: bool = true;
 // Composite the segments in a cube of uniform cells as one segment.
 override UNIFORM_CELLS: bool = false;
+
+// The side, in workgroups, of the tiles a dispatch runs in (main.wgsl).
+override GROUP_TILE: u32 = 8u;

@@ -5,7 +5,7 @@ use crate::config::RenderConfig;
 use crate::gpu::bindings;
 use crate::error::{try_vec, Error};
 use crate::gpu::params::{world_unit, FrameInputs, Params};
-use crate::gpu::pipeline::{Layout, Variant, WORKGROUP};
+use crate::gpu::pipeline::{dispatch_groups, Layout, Variant};
 use crate::gpu::plan::{plan, PassPlan};
 use crate::gpu::readback::read_buffers;
 use crate::gpu::resources::{readback_buffer, PreintKey, RayState};
@@ -279,7 +279,8 @@ impl GpuRenderer {
                         enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("raymarch"), timestamp_writes: None });
                     cpass.set_pipeline(&pipeline);
                     cpass.set_bind_group(0, bind_group, &[]);
-                    cpass.dispatch_workgroups(rect.width.div_ceil(WORKGROUP), rect.height.div_ceil(WORKGROUP), 1);
+                    let (gx, gy) = dispatch_groups(rect.width, rect.height);
+                    cpass.dispatch_workgroups(gx, gy, 1);
                 }
                 if last {
                     enc.copy_buffer_to_buffer(&f.output.storage, 0, &f.output.readback, 0, image_bytes);

@@ -9,7 +9,7 @@ use crate::error::Error;
 use crate::model::Model;
 use crate::occupancy::{segment_ranges, uniform_radius, SegmentRanges};
 use super::params::Params;
-use super::pipeline::{Pipelines, WORKGROUP};
+use super::pipeline::{max_dispatch_side, Pipelines};
 use super::resources::{readback_buffer, Fixed, OccSource, Occupancy, Output, RayState, Tables, VolumeGpu};
 use crate::scene::Bounds;
 use crate::transfer::ValueMap;
@@ -263,7 +263,7 @@ impl GpuRenderer {
                 limit / 16
             )));
         }
-        let groups = ctx.limits.max_compute_workgroups_per_dimension as u64 * WORKGROUP as u64;
+        let groups = max_dispatch_side(ctx.limits.max_compute_workgroups_per_dimension);
         if width as u64 > groups || height as u64 > groups {
             return Err(Error::DeviceLimit(format!(
                 "image {width}x{height} exceeds this device's limit of {groups} pixels per side"
