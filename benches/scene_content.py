@@ -101,22 +101,26 @@ def main():
     print("\nmemory per voxel on the GPU (volume texture, plus normals when given):")
     memory = []
     base = create_sample_volume(64, "sphere")
-    for label, data, normals in [
-        ("uint8", (base * 255).astype(np.uint8), None),
-        ("uint16", (base * 65535).astype(np.uint16), None),
-        ("float32", base, None),
-        ("float64 (stored as float32)", base.astype(np.float64), None),
-        ("float32 + normals", base, compute_normal_volume(base)),
+    normals = compute_normal_volume(base)
+    for label, data, nrm, precision in [
+        ("uint8", (base * 255).astype(np.uint8), None, "auto"),
+        ("uint16", (base * 65535).astype(np.uint16), None, "auto"),
+        ("float32", base, None, "auto"),
+        ("float64 (stored as float32)", base.astype(np.float64), None, "auto"),
+        ("float32 + normals", base, normals, "auto"),
+        ("uint8 + normals", (base * 255).astype(np.uint8), normals, "auto"),
+        ("float32 + normals, precision='float32'", base, normals, "float32"),
+        ("uint8 + normals, precision='float32'", (base * 255).astype(np.uint8), normals, "float32"),
+        ("float32, precision='fixed16'", base, None, "fixed16"),
+        ("float32, precision='float16'", base, None, "float16"),
+        ("float32 + normals, precision='float16'", base, normals, "float16"),
     ]:
         r = VolumeRenderer(8, 8)
-        r.load_volume(Volume(data, normals))
-        print(f"  {label:30s} {r.counters()['volume_bytes'] / base.size:5.1f} bytes/voxel")
+        r.load_volume(Volume(data, nrm), precision=precision)
+        print(f"  {label:40s} {r.counters()['volume_bytes'] / base.size:5.1f} bytes/voxel")
         memory.append([label, r.counters()["volume_storage"], f"{r.counters()['volume_bytes'] / base.size:.1f}"])
-    for label, normals in (("float16", None), ("float16 + normals", compute_normal_volume(base))):
-        r = VolumeRenderer(8, 8)
-        r.load_volume(Volume(base, normals), precision="float16")
-        memory.append([label, r.counters()["volume_storage"], f"{r.counters()['volume_bytes'] / base.size:.1f}"])
-    write_table("memory", command, ["stored as", "device format", "bytes per voxel"], memory, device=r.device)
+    write_table("memory", command, ["stored as (precision 'auto' unless named)", "device format", "bytes per voxel"],
+                memory, device=r.device)
 
     data = create_sample_volume(args.volume, "double_sphere")
     r = VolumeRenderer(args.size, args.size, config=RenderConfig.balanced(), light=Light.default())

@@ -7,6 +7,7 @@
 pub mod bricks;
 pub mod config;
 pub mod error;
+pub mod fixed16;
 pub mod gpu;
 pub mod gradients;
 pub mod integrate;

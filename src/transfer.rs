@@ -55,6 +55,11 @@ impl ValueMap {
     pub fn apply(self, v: f64) -> f64 {
         v * self.scale + self.offset
     }
+
+    /// `inner` first, then this map.
+    pub fn after(self, inner: ValueMap) -> ValueMap {
+        ValueMap { scale: self.scale * inner.scale, offset: self.apply(inner.offset) }
+    }
 }
 
 impl Default for ValueMap {

@@ -129,7 +129,7 @@ def test_float16_refuses_values_it_cannot_hold(value):
     r.load_volume(Volume(d), precision="float32")  # exact storage takes it
 
 
-@pytest.mark.parametrize("bad", ["float64", "auto", "", 16])
+@pytest.mark.parametrize("bad", ["float64", "fixed8", "", 16])
 def test_unknown_precision_is_a_value_error(bad):
     with pytest.raises(ValueError, match="float32"):
         VolumeRenderer(8, 8).load_volume(Volume(create_sample_volume(8)), precision=bad)

@@ -192,7 +192,7 @@ impl PyRenderer {
     }
 
     /// Uploads a volume; data is float32, uint8 or uint16, C-contiguous;
-    /// precision is 'float32' or 'float16' (float data only).
+    /// precision is 'float32' or 'float16' (float data only) or 'fixed16'.
     #[pyo3(signature = (data, normals, min_bounds, max_bounds, precision = "float32"))]
     fn set_volume(
         &mut self,

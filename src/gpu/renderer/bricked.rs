@@ -136,6 +136,13 @@ impl GpuRenderer {
                 vol.dims
             )));
         }
+        if precision == Precision::Fixed16 {
+            // Each brick would code its own range, and a voxel shared by two
+            // bricks would read differently in each.
+            return Err(Error::InvalidInput(
+                "precision 'fixed16' is for volumes in one texture: store bricks as 'float32' or 'float16'".into(),
+            ));
+        }
         let mut gpu = VolumeGpu::upload(&ctx, vol, precision)?;
         // Passes are planned over the brick's own box.
         gpu.bounds = core_box(&grid, &bounds, index);

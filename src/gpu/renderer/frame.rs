@@ -124,7 +124,7 @@ impl GpuRenderer {
             width: self.width,
             height: self.height,
             lut_size: self.tables.lut.as_ref().map_or(1, |(_, n)| *n),
-            value_map: self.value_map,
+            value_map: self.value_map.after(vol.stored),
             clip: self.clip,
             max_extinction: self.max_extinction(cfg),
         };
