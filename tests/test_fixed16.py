@@ -21,6 +21,13 @@ PACKED = "rgba16snorm (16-bit fixed point (value, normal))"
 HAS_NORM16 = device_limits()["norm16_textures"]
 
 
+@pytest.fixture
+def small_cache(monkeypatch):
+    """A CPU cache smaller than these test volumes' float32 texels, so that
+    precision='auto' treats them as it treats large volumes."""
+    monkeypatch.setattr("pyvr.renderer.cpu_cache_bytes", lambda: 2**16)
+
+
 def renderer(vol, precision="auto", light=None, otf=None, value_range=None, config=None, size=(48, 40)):
     return make_renderer(vol, size=size, precision=precision, light=light or Light.default(), otf=otf,
                          value_range=value_range, config=config, camera=Camera.isometric_view(distance=2.6),
@@ -43,18 +50,23 @@ def lit_volume(n=40, dtype=np.float32, scale=1.0, offset=0.0):
     return Volume(np.round(d / d.max() * top).astype(dtype), nrm)
 
 
-def test_auto_stores_lit_volumes_in_16_bits_per_component():
+def test_auto_stores_lit_volumes_in_16_bits_per_component(monkeypatch):
     if not HAS_NORM16:
         # Without 16-bit normalized textures auto keeps float32, and asking is a clear error.
         assert renderer(lit_volume()).precision == "float32"
         with pytest.raises(ValueError, match="16-bit normalized"):
             renderer(lit_volume(), precision="fixed16")
         return
-    for vol in (lit_volume(), lit_volume(dtype=np.uint8), lit_volume(dtype=np.uint16)):
+    for vol in (lit_volume(dtype=np.uint8), lit_volume(dtype=np.uint16)):
         r = renderer(vol)
         assert r.precision == "fixed16"
         c = r.counters()
         assert (c["volume_storage"], c["volume_bytes"]) == (PACKED, 8 * vol.data.size)
+    # Float data: fixed point where its float32 texels outgrow a CPU's cache.
+    cpu = device_limits()["cpu_device"]
+    assert renderer(lit_volume()).precision == "float32"
+    monkeypatch.setattr("pyvr.renderer.cpu_cache_bytes", lambda: 2**16)
+    assert renderer(lit_volume()).precision == ("fixed16" if cpu else "float32")
     # Without normals auto keeps the values as they are.
     assert renderer(Volume(create_sample_volume(16))).precision == "float32"
 
@@ -103,7 +115,7 @@ def test_value_only_fixed16_for_other_models(model):
 
 
 @pytest.mark.skipif(not HAS_NORM16, reason="covered by test_auto_stores_lit_volumes_in_16_bits_per_component")
-def test_auto_follows_the_value_range():
+def test_auto_follows_the_value_range(small_cache):
     # Data over [0, 1000] seen through a window one unit wide: 16 bits over
     # the data would move values by 0.008 of the window, so auto keeps
     # float32; a window over the whole range takes fixed16; back again.
@@ -122,7 +134,7 @@ def test_auto_follows_the_value_range():
 
 @pytest.mark.skipif(not HAS_NORM16, reason="covered by test_auto_stores_lit_volumes_in_16_bits_per_component")
 @pytest.mark.parametrize("bad", [np.nan, np.inf, "mask", "u16 full range"])
-def test_data_16_bits_cannot_code(bad):
+def test_data_16_bits_cannot_code(bad, small_cache):
     vol = lit_volume(16)
     if bad == "mask":
         vol = Volume(np.ma.masked_greater(vol.data, 0.5), vol.normals)
@@ -150,3 +162,25 @@ def test_constant_volume_and_bricks():
         r.load_volume(vol, precision="fixed16")
     r.load_volume(vol)
     assert r.bricks is not None and r.precision == "float32"
+
+
+def test_cpu_cache_size_is_read_or_assumed():
+    from pyvr.renderer import DEFAULT_CPU_CACHE, cpu_cache_bytes
+
+    size = cpu_cache_bytes()
+    assert 2**16 <= size <= 2**32 and (size == DEFAULT_CPU_CACHE or size % 1024 == 0)
+
+
+@pytest.mark.skipif(not HAS_NORM16, reason="covered by test_auto_stores_lit_volumes_in_16_bits_per_component")
+def test_auto_keeps_fixed16_with_a_warning_where_float32_would_not_fit(small_cache):
+    # 40^3 lit voxels: 512 KB at 8 bytes fits this budget in one texture,
+    # 1 MB at 16 would not.
+    vol = lit_volume(scale=1000.0)
+    vol.value_range = (0.0, 1000.0)
+    r = VolumeRenderer(16, 16, memory_budget=700_000)
+    r.load_volume(vol)
+    assert r.precision == "fixed16" and r.bricks is None
+    with pytest.warns(UserWarning, match="stays in fixed point"):
+        r.set_transfer_functions(ColorTransferFunction.from_colormap("plasma"),
+                                 OpacityTransferFunction.linear(0.0, 0.4), value_range=(0.0, 1.0))
+    assert r.precision == "fixed16"

@@ -10,6 +10,7 @@ light from their position; any volume shape renders.
 """
 
 import functools
+import glob
 import os
 import tempfile
 import threading
@@ -226,6 +227,27 @@ PRECISIONS = ("auto", "float32", "float16", "fixed16")
 # moves by at most 2 / 131068 (1.5e-5) of the functions' domain.
 FIXED16_MAX_SPAN = 2.0
 
+# The last-level cache assumed where the system does not say (the 2-core
+# machine the storages were measured on has 32 MiB).
+DEFAULT_CPU_CACHE = 32 * 2**20
+
+
+def cpu_cache_bytes() -> int:
+    """The largest CPU cache this machine reports (Linux sysfs), else
+    DEFAULT_CPU_CACHE."""
+    sizes = []
+    for path in glob.glob("/sys/devices/system/cpu/cpu0/cache/index*/size"):
+        try:
+            with open(path) as f:
+                text = f.read().strip()
+        except OSError:
+            continue
+        unit = {"K": 2**10, "M": 2**20, "G": 2**30}.get(text[-1:].upper(), 1)
+        digits = text[:-1] if unit > 1 else text
+        if digits.isdigit():
+            sizes.append(int(digits) * unit)
+    return max(sizes, default=DEFAULT_CPU_CACHE)
+
 
 def _fixed16_range(data) -> Optional[Tuple[float, float]]:
     """The (least, largest) value 16-bit fixed point would span, in the
@@ -265,10 +287,22 @@ def _check_fixed16(volume: Volume, fixed_range) -> None:
 
 def _auto_precision(volume: Volume, fixed_range, scale: float) -> str:
     """What precision='auto' stores ``volume`` as, under a value map of
-    ``scale`` (samples to the transfer functions' domain)."""
-    if volume.normals is None or fixed_range is None or not device_limits().get("norm16_textures", False):
+    ``scale`` (samples to the transfer functions' domain): 16-bit fixed
+    point where it was measured faster (benches/volume_size.py,
+    benches/scene_content.py): integers with normals (one 8-byte fetch
+    instead of a value interpolated by hand beside 8-bit normals), and
+    float data with normals on a CPU device when its float32 texels
+    (16 bytes a voxel) outgrow the CPU's largest cache, where half the bytes
+    miss it half as often (fixed point's decoding costs 7% more a sample
+    while the texels fit). Float data only where 16 bits resolve the
+    transfer functions' value range (FIXED16_MAX_SPAN)."""
+    limits = device_limits()
+    if volume.normals is None or fixed_range is None or not limits.get("norm16_textures", False):
         return "float32"
-    if _storage_dtype(volume.data.dtype) != np.float32 or scale * (fixed_range[1] - fixed_range[0]) <= FIXED16_MAX_SPAN:
+    if _storage_dtype(volume.data.dtype) != np.float32:
+        return "fixed16"
+    outgrows = 16 * volume.data.size > cpu_cache_bytes()
+    if limits.get("cpu_device", False) and outgrows and scale * (fixed_range[1] - fixed_range[0]) <= FIXED16_MAX_SPAN:
         return "fixed16"
     return "float32"
 
@@ -494,18 +528,19 @@ class VolumeRenderer:
         ``precision`` says how the data is stored on the device:
 
         - ``"auto"`` (default): ``"fixed16"`` for a volume with normals
-          where 16 bits resolve what the transfer functions see (integer
-          data, or finite float data whose range spans at most twice the
-          transfer functions' value range, so that values move by at most
-          1.5e-5 of that range); else ``"float32"``. Decided again when the
-          value range changes.
+          where it is faster and 16 bits resolve what the transfer
+          functions see: integer data; on a CPU device (lavapipe), finite
+          float data whose float32 texels outgrow the CPU's largest cache
+          and whose range spans at most twice the transfer functions' value
+          range (values then move by at most 1.5e-5 of that range). Else
+          ``"float32"``. Decided again when the value range changes.
         - ``"fixed16"``: values as 16-bit fixed point over the data's own
           range: integer data exactly, float data rounded to a 131068th of
           its range (finite values only). 2 bytes per voxel, or 8 with
           normals, which then share the value's texel at 16 bits per
-          component: the lit benchmark scene renders 1.2x faster than at
-          float32 on a CPU device, which then misses its caches half as
-          often. Needs a device with 16-bit normalized textures
+          component: the lit 256^3 benchmark scene renders 1.2-1.4x
+          faster than at float32 on lavapipe, which then misses its caches
+          half as often (benches/precision_ab.py). Needs a device with 16-bit normalized textures
           (``device_limits()["norm16_textures"]``); not for bricked volumes.
         - ``"float32"``: exact values, 4 bytes per voxel (integer data is
           stored exactly, in 1 or 2 bytes per voxel). With
@@ -713,13 +748,27 @@ class VolumeRenderer:
         self._value_map = sample_map(self.value_range, self.volume.data.dtype)
         self._engine.set_value_map(*self._value_map)
         if self._precision_request == "auto" and self._bricked is None:
-            chosen = _auto_precision(self.volume, self._fixed16_range, self._value_map[0])
-            if chosen != self._precision:
-                # The new range asks for more (or allows fewer) bits than the stored values have.
-                _check_volume_fits(self.volume, chosen)
-                self._engine.set_volume(prepare_voxels(self.volume.data), prepare_normals(self.volume.normals),
-                                        *self._bounds, chosen)
-                self._precision = chosen
+            self._rechoose_precision()
+
+    def _rechoose_precision(self) -> None:
+        """Stores the loaded volume again where the value range now asks for
+        more bits than 16-bit fixed point gives (or allows fewer)."""
+        chosen = _auto_precision(self.volume, self._fixed16_range, self._value_map[0])
+        if chosen == self._precision:
+            return
+        if chosen == "float32" and self._needs_bricks(self.volume, chosen):
+            key = ("fixed16 kept", self._value_map)
+            if key in self._warned:
+                return
+            self._warned.add(key)
+            warnings.warn("the transfer functions' value range is narrower than half the data's range, so 16-bit "
+                          "fixed point moves values by more than 1.5e-5 of it; the volume stays in fixed point "
+                          "because float32 texels would not fit this device in one texture: load_volume(..., "
+                          "precision='float32') bricks it", UserWarning, stacklevel=4)
+            return
+        self._engine.set_volume(prepare_voxels(self.volume.data), prepare_normals(self.volume.normals),
+                                *self._bounds, chosen)
+        self._precision = chosen
 
     @property
     def precision(self) -> str:
