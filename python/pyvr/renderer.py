@@ -231,6 +231,13 @@ FIXED16_MAX_SPAN = 2.0
 # machine the storages were measured on has 32 MiB).
 DEFAULT_CPU_CACHE = 32 * 2**20
 
+# At equal samples, fixed point's 8-byte texels were 3-7% slower than
+# float32's 16 while the latter took up to 108 MiB (192^3), 5% faster at
+# 256 MiB (256^3), on lavapipe with 32 MiB of L3 (benches/volume_size.py):
+# decoding costs more than the misses it saves until the texels are several
+# times the cache.
+CACHE_FACTOR = 4
+
 
 def cpu_cache_bytes() -> int:
     """The largest CPU cache this machine reports (Linux sysfs), else
@@ -292,16 +299,15 @@ def _auto_precision(volume: Volume, fixed_range, scale: float) -> str:
     benches/scene_content.py): integers with normals (one 8-byte fetch
     instead of a value interpolated by hand beside 8-bit normals), and
     float data with normals on a CPU device when its float32 texels
-    (16 bytes a voxel) outgrow the CPU's largest cache, where half the bytes
-    miss it half as often (fixed point's decoding costs 7% more a sample
-    while the texels fit). Float data only where 16 bits resolve the
-    transfer functions' value range (FIXED16_MAX_SPAN)."""
+    (16 bytes a voxel) take over CACHE_FACTOR times the CPU's largest
+    cache. Float data only where 16 bits resolve the transfer functions'
+    value range (FIXED16_MAX_SPAN)."""
     limits = device_limits()
     if volume.normals is None or fixed_range is None or not limits.get("norm16_textures", False):
         return "float32"
     if _storage_dtype(volume.data.dtype) != np.float32:
         return "fixed16"
-    outgrows = 16 * volume.data.size > cpu_cache_bytes()
+    outgrows = 16 * volume.data.size > CACHE_FACTOR * cpu_cache_bytes()
     if limits.get("cpu_device", False) and outgrows and scale * (fixed_range[1] - fixed_range[0]) <= FIXED16_MAX_SPAN:
         return "fixed16"
     return "float32"
@@ -530,17 +536,20 @@ class VolumeRenderer:
         - ``"auto"`` (default): ``"fixed16"`` for a volume with normals
           where it is faster and 16 bits resolve what the transfer
           functions see: integer data; on a CPU device (lavapipe), finite
-          float data whose float32 texels outgrow the CPU's largest cache
-          and whose range spans at most twice the transfer functions' value
-          range (values then move by at most 1.5e-5 of that range). Else
-          ``"float32"``. Decided again when the value range changes.
+          float data whose float32 texels take over four times the CPU's
+          largest cache and whose range spans at most twice the transfer
+          functions' value range (values then move by at most 1.5e-5 of
+          that range). Else ``"float32"``. Decided again when the value
+          range changes.
         - ``"fixed16"``: values as 16-bit fixed point over the data's own
           range: integer data exactly, float data rounded to a 131068th of
           its range (finite values only). 2 bytes per voxel, or 8 with
           normals, which then share the value's texel at 16 bits per
           component: the lit 256^3 benchmark scene renders 1.2-1.4x
-          faster than at float32 on lavapipe, which then misses its caches
-          half as often (benches/precision_ab.py). Needs a device with 16-bit normalized textures
+          faster than at float32 on lavapipe (benches/precision_ab.py),
+          mostly because its values within half a code of 0 read as 0 and
+          their cells become empty; at equal samples 5% faster at 256^3 and
+          3-7% slower at 192^3 and below (benches/volume_size.py). Needs a device with 16-bit normalized textures
           (``device_limits()["norm16_textures"]``); not for bricked volumes.
         - ``"float32"``: exact values, 4 bytes per voxel (integer data is
           stored exactly, in 1 or 2 bytes per voxel). With
