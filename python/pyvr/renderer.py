@@ -207,7 +207,8 @@ def device_texel_bytes(data, has_normals: bool, precision: str) -> Tuple[int, in
     normals share one float texel (value, normal): 8 bytes at float16, 16 at
     float32 where the device filters float32 textures, the values are finite
     and the texels fit one upload; else the normals are a texture of their
-    own (4 bytes), beside 4-byte values."""
+    own (4 bytes), beside 4-byte values. 16-bit fixed point: 2 bytes, or 8
+    with normals."""
     t = 4 if isinstance(data, np.ma.MaskedArray) else _storage_dtype(data.dtype).itemsize
     if precision == "fixed16":
         t = 8 if has_normals else 2

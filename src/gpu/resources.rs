@@ -150,9 +150,8 @@ impl VolumeGpu {
 
     /// Values as 16-bit fixed point over their range (`crate::fixed16`):
     /// R16Snorm, or with normals one Rgba16Snorm texel (value, normal) per
-    /// voxel. Half the bytes of (value, normal) in float32, which on a CPU
-    /// device misses the caches half as often. Float data's occupancy grid
-    /// is built from the values the device reads.
+    /// voxel, half the bytes of (value, normal) in float32. Float data's
+    /// occupancy grid is built from the values the device reads.
     fn upload_fixed16(ctx: &GpuContext, vol: &VolumeView) -> Result<VolumeGpu, Error> {
         let coded = Fixed16::encode(vol.voxels)?;
         let grid = match vol.voxels {
