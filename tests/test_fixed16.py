@@ -184,3 +184,24 @@ def test_auto_keeps_fixed16_with_a_warning_where_float32_would_not_fit(small_cac
         r.set_transfer_functions(ColorTransferFunction.from_colormap("plasma"),
                                  OpacityTransferFunction.linear(0.0, 0.4), value_range=(0.0, 1.0))
     assert r.precision == "fixed16"
+
+
+@pytest.mark.skipif(not HAS_NORM16, reason="covered by test_auto_stores_lit_volumes_in_16_bits_per_component")
+def test_fixed16_skipping_matches_unskipped():
+    # The occupancy grid is built from the values the device reads: values
+    # within half a code of the data's least (0 here) read as 0, so more
+    # cells are empty than at float32, and skipping them changes nothing.
+    d = create_sample_volume(64, "double_sphere")
+    vol = Volume(d, compute_normal_volume(d))
+    otf = OpacityTransferFunction.linear(0.0, 0.4)
+    frames = {}
+    for precision in ("float32", "fixed16"):
+        for skip in (False, True):
+            r = renderer(vol, precision, otf=otf)
+            r.empty_space_skipping = skip
+            frames[precision, skip] = (frame(r), r.last_frame_stats["samples"], r.empty_fraction())
+    plain, skipped = frames["fixed16", False], frames["fixed16", True]
+    assert np.abs(plain[0] - skipped[0]).max() * LEVELS < 0.01 and plain[0][..., 3].max() > 0.5
+    assert skipped[1] < 0.9 * plain[1]
+    assert skipped[2] > frames["float32", True][2]
+    assert np.abs(skipped[0] - frames["float32", True][0]).max() * LEVELS < 0.05
