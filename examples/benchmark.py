@@ -74,6 +74,7 @@ def main():
         rows.append((name, config, setup_ms, first_ms, times, truncated))
 
     print(f"device: {renderer.device}")
+    print(f"volume stored as: {renderer.counters()['volume_storage']} (precision {renderer.precision!r})")
     print(f"{'preset':14s} {'step':>6s} {'max_steps':>9s} {'setup ms':>9s} {'first ms':>9s} "
           f"{'median ms':>10s} {'mean±std ms':>14s} {'FPS':>6s}  note")
     for name, cfg, setup_ms, first_ms, times, truncated in rows:
