@@ -232,7 +232,7 @@ FIXED16_MAX_SPAN = 2.0
 # machine the storages were measured on has 32 MiB).
 DEFAULT_CPU_CACHE = 32 * 2**20
 
-# At equal samples, fixed point's 8-byte texels were 3-7% slower than
+# At equal samples, fixed point's 8-byte texels were 3-8% slower than
 # float32's 16 while the latter took up to 108 MiB (192^3), 5% faster at
 # 256 MiB (256^3), on lavapipe with 32 MiB of L3 (benches/volume_size.py):
 # decoding costs more than the misses it saves until the texels are several
@@ -550,7 +550,7 @@ class VolumeRenderer:
           faster than at float32 on lavapipe (benches/precision_ab.py),
           mostly because its values within half a code of 0 read as 0 and
           their cells become empty; at equal samples 5% faster at 256^3 and
-          3-7% slower at 192^3 and below (benches/volume_size.py). Needs a device with 16-bit normalized textures
+          3-8% slower at 192^3 and below (benches/volume_size.py). Needs a device with 16-bit normalized textures
           (``device_limits()["norm16_textures"]``); not for bricked volumes.
         - ``"float32"``: exact values, 4 bytes per voxel (integer data is
           stored exactly, in 1 or 2 bytes per voxel). With

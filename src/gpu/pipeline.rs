@@ -19,8 +19,8 @@ pub const WORKGROUP: u32 = 8;
 /// `group_origin`): on lavapipe the benchmark scene's balanced frame (256^3
 /// texels of 16 bytes, 512^2) took 489-508 ms against 547-566 ms in image
 /// rows (4 alternating runs), 1701-1707 against 1887-1957 ms at 1024^2 and
-/// 178-212 against 192-212 ms at 256^2. Tiles of 16 were slower: 64 x 8^2
-/// rays then cross more voxels than the 32 MB L3 cache holds.
+/// 178-212 against 192-212 ms at 256^2. Tiles of 16 were slower (544-573
+/// ms), and Morton order within tiles of 8 no faster (504-518 ms).
 pub const GROUP_TILE: u32 = 8;
 
 /// The workgroups a dispatch over `width` x `height` pixels needs: whole
