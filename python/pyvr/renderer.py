@@ -766,14 +766,20 @@ class VolumeRenderer:
         chosen = _auto_precision(self.volume, self._fixed16_range, self._value_map[0])
         if chosen == self._precision:
             return
-        if chosen == "float32" and self._needs_bricks(self.volume, chosen):
+        # The same checks load_volume makes before it uploads: the device's
+        # limits and budget (else bricks), and this machine's memory.
+        try:
+            if self._needs_bricks(self.volume, chosen):
+                raise ValueError("the texels need bricks")
+            _check_volume_fits(self.volume, chosen)
+        except ValueError as e:
             key = ("fixed16 kept", self._value_map)
             if key in self._warned:
                 return
             self._warned.add(key)
             warnings.warn("the transfer functions' value range is narrower than half the data's range, so 16-bit "
                           "fixed point moves values by more than 1.5e-5 of it; the volume stays in fixed point "
-                          "because float32 texels would not fit this device in one texture: load_volume(..., "
+                          f"because float32 texels would not fit in one texture ({e}): load_volume(..., "
                           "precision='float32') bricks it", UserWarning, stacklevel=4)
             return
         self._engine.set_volume(prepare_voxels(self.volume.data), prepare_normals(self.volume.normals),
