@@ -33,12 +33,12 @@ os.environ.setdefault("TQDM_DISABLE", "1")  # the float64 integrator's progress 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 
-from accuracy import SWEEP, scenes  # noqa: E402
+from accuracy import REFERENCE_HALVINGS, SWEEP, scenes  # noqa: E402
 from _report import write_table  # noqa: E402
 from pyvr import RenderConfig, VolumeRenderer, accuracy  # noqa: E402
 from pyvr.camera import Camera  # noqa: E402
 
-STEPS = [0.005, 0.01, 0.02, 0.04]
+STEPS = [0.005, 0.01, 0.02, 0.04, 0.08]
 # The accuracy sweep, and smaller steps for midpoint frames of narrow peaks.
 GAIN_SWEEP = SWEEP + [0.00125, 0.000625]
 TARGETS = [1.0, 4.0]
@@ -91,7 +91,7 @@ def cost(scene, steps, frames):
 def gain(scene, targets, frames, sweep):
     r = renderer_for(scene)
     t = time.perf_counter()
-    conv, info = accuracy.converged_image(r, tolerance=0.1)
+    conv, info = accuracy.converged_image(r, tolerance=0.1, max_halvings=REFERENCE_HALVINGS)
     print(f"  {scene[0]}: converged at step {info['step']:.4g} in {time.perf_counter() - t:.0f} s "
           f"(estimated error {info['estimated_max_error']:.2f} levels)", flush=True)
     # From the largest step down, each kind until it meets the smallest target.
