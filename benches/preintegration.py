@@ -39,8 +39,9 @@ from pyvr import RenderConfig, VolumeRenderer, accuracy  # noqa: E402
 from pyvr.camera import Camera  # noqa: E402
 
 STEPS = [0.005, 0.01, 0.02, 0.04, 0.08]
-# The accuracy sweep, and smaller steps for midpoint frames of narrow peaks.
-GAIN_SWEEP = SWEEP + [0.00125, 0.000625]
+# The accuracy sweep, and smaller steps for midpoint frames of narrow peaks
+# and for the helix (4 levels at 0.0003).
+GAIN_SWEEP = SWEEP + [0.00125, 0.000625, 0.0003125]
 TARGETS = [1.0, 4.0]
 
 
