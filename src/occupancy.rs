@@ -52,14 +52,25 @@ pub struct MinMaxGrid {
 
 impl MinMaxGrid {
     pub fn build(vol: &VolumeView) -> MinMaxGrid {
-        // One typed loop per stored format (the same values as
-        // `Voxels::value`, NaN included: min/max ignore it).
+        // One typed copy per stored format into a row of f32 (the same
+        // values as `Voxels::value`, NaN included: min/max ignore it).
+        let row_of = |i: usize, n: usize| i * n..(i + 1) * n;
         match vol.voxels {
-            Voxels::F32(v) => {
-                MinMaxGrid { has_nan: v.iter().any(|x| x.is_nan()), ..Self::build_from(vol.dims, |i| sanitize(v[i])) }
-            }
-            Voxels::U8(v) => Self::build_from(vol.dims, |i| (v[i] as f64 / 255.0) as f32),
-            Voxels::U16(v) => Self::build_from(vol.dims, |i| (v[i] as f64 / 65535.0) as f32),
+            Voxels::F32(v) => Self::build_from(vol.dims, |i, row| {
+                let src = &v[row_of(i, row.len())];
+                row.iter_mut().zip(src).for_each(|(r, &x)| *r = sanitize(x));
+                src.iter().any(|x| x.is_nan())
+            }),
+            Voxels::U8(v) => Self::build_from(vol.dims, |i, row| {
+                let src = &v[row_of(i, row.len())];
+                row.iter_mut().zip(src).for_each(|(r, &x)| *r = (x as f64 / 255.0) as f32);
+                false
+            }),
+            Voxels::U16(v) => Self::build_from(vol.dims, |i, row| {
+                let src = &v[row_of(i, row.len())];
+                row.iter_mut().zip(src).for_each(|(r, &x)| *r = (x as f64 / 65535.0) as f32);
+                false
+            }),
         }
     }
 
@@ -67,86 +78,94 @@ impl MinMaxGrid {
     /// apron - 1] along every axis, for each of APRONS (1: what a sample in
     /// the cell can read; then the wide ranges), one axis at a time and one
     /// slice of axis 0 at a time, so that what is held besides the grid is a
-    /// slice's rows and a 64th of the voxels' count per apron. Along axis 2
-    /// a cell's voxels are read from its last (the ranges of its last few
-    /// serve the next cell's window), then the first few of the next cell:
-    /// 13 reads per 8 voxels for all three aprons.
-    fn build_from(dims: [usize; 3], value: impl Fn(usize) -> f32) -> MinMaxGrid {
+    /// slice's rows and a 64th of the voxels' count per apron. `fill(r,
+    /// row)` writes the values of row r (axis 2) and says whether one is
+    /// NaN.
+    fn build_from(dims: [usize; 3], fill: impl Fn(usize, &mut [f32]) -> bool) -> MinMaxGrid {
         const APRONS: [usize; 3] = [1, 1 + WIDE_APRONS[0], 1 + WIDE_APRONS[1]];
         const _: () = assert!(APRONS[0] < APRONS[1] && APRONS[1] < APRONS[2] && APRONS[2] <= BLOCK);
-        type Range = (f32, f32);
-        const NONE: Range = (f32::INFINITY, f32::NEG_INFINITY);
-        let hull = |r: Range, s: Range| (r.0.min(s.0), r.1.max(s.1));
         let [s0, s1, s2] = dims;
         let g = dims.map(|s| s.div_ceil(BLOCK));
         let plane = g[1] * g[2];
         let window =
             |c: usize, n: usize, apron: usize| (c * BLOCK).saturating_sub(apron)..((c + 1) * BLOCK + apron).min(n);
-        // (s0, g1, g2) per apron: each slice reduced along axes 2 and 1.
-        let mut slices = vec![vec![NONE; s0 * plane]; APRONS.len()];
+        // Plain comparisons (NaN is gone from the rows below): f32::min's
+        // NaN rule costs more than the comparison itself.
+        let lower = |a: f32, b: f32| if b < a { b } else { a };
+        let higher = |a: f32, b: f32| if b > a { b } else { a };
+        // Per apron, (s0, g1, g2): each slice reduced along axes 2 and 1.
+        let mut slice_lo = vec![vec![f32::INFINITY; s0 * plane]; APRONS.len()];
+        let mut slice_hi = vec![vec![f32::NEG_INFINITY; s0 * plane]; APRONS.len()];
         // One slice's rows reduced along axis 2: (s1, g2) per apron.
-        let mut rows = vec![vec![NONE; s1 * g[2]]; APRONS.len()];
+        let mut rows_lo = vec![vec![0.0f32; s1 * g[2]]; APRONS.len()];
+        let mut rows_hi = vec![vec![0.0f32; s1 * g[2]]; APRONS.len()];
+        // A row's values, and the same padded by the widest apron on both
+        // sides, with NaN and the padding as +inf (for minima) and -inf (for
+        // maxima), so that ranges ignore them and windows need no clamping.
+        const PAD: usize = APRONS[APRONS.len() - 1];
+        let mut row = vec![0.0f32; s2];
+        let mut row_lo = vec![f32::INFINITY; g[2] * BLOCK + 2 * PAD];
+        let mut row_hi = vec![f32::NEG_INFINITY; g[2] * BLOCK + 2 * PAD];
+        let (mut lo, mut hi) = (vec![0.0f32; g[2]], vec![0.0f32; g[2]]);
+        let mut has_nan = false;
         for i in 0..s0 {
             for j in 0..s1 {
-                let base = (i * s1 + j) * s2;
-                let read = |k: usize| {
-                    let v = value(base + k);
-                    (v, v)
-                };
-                // The previous cell's last APRONS[t] voxels.
-                let mut before = [NONE; APRONS.len()];
-                for c in 0..g[2] {
-                    let end = ((c + 1) * BLOCK).min(s2);
-                    // The ranges of the cell's last n + 1 voxels, and of the
-                    // n + 1 voxels after it.
-                    let (mut last, mut next) = ([NONE; BLOCK], [NONE; APRONS[APRONS.len() - 1]]);
-                    let mut r = NONE;
-                    for (n, k) in (c * BLOCK..end).rev().enumerate() {
-                        r = hull(r, read(k));
-                        last[n] = r;
+                has_nan |= fill(i * s1 + j, &mut row);
+                for ((l, h), &v) in row_lo[PAD..].iter_mut().zip(&mut row_hi[PAD..]).zip(&row) {
+                    (*l, *h) = if v.is_nan() { (f32::INFINITY, f32::NEG_INFINITY) } else { (v, v) };
+                }
+                // Every cell of the row at once (independent chains, where
+                // one cell at a time waits on each comparison): its own
+                // voxels, then one voxel further out on each side at a time.
+                lo.fill(f32::INFINITY);
+                hi.fill(f32::NEG_INFINITY);
+                for k in 0..BLOCK {
+                    for c in 0..g[2] {
+                        lo[c] = lower(lo[c], row_lo[PAD + c * BLOCK + k]);
+                        hi[c] = higher(hi[c], row_hi[PAD + c * BLOCK + k]);
                     }
-                    let own = r;
-                    r = NONE;
-                    for (n, k) in (end..s2).take(next.len()).enumerate() {
-                        r = hull(r, read(k));
-                        next[n] = r;
+                }
+                let mut t = 0;
+                for d in 1..=PAD {
+                    for c in 0..g[2] {
+                        let (before, after) = (PAD + c * BLOCK - d, PAD + (c + 1) * BLOCK + d - 1);
+                        lo[c] = lower(lo[c], lower(row_lo[before], row_lo[after]));
+                        hi[c] = higher(hi[c], higher(row_hi[before], row_hi[after]));
                     }
-                    for (t, &a) in APRONS.iter().enumerate() {
-                        // Past the volume's end `next` keeps its last range.
-                        let after = next[..a].iter().fold(NONE, |x, &y| hull(x, y));
-                        rows[t][j * g[2] + c] = hull(own, hull(before[t], after));
-                        before[t] = last[a - 1];
+                    if APRONS[t] == d {
+                        rows_lo[t][j * g[2]..(j + 1) * g[2]].copy_from_slice(&lo);
+                        rows_hi[t][j * g[2]..(j + 1) * g[2]].copy_from_slice(&hi);
+                        t += 1;
                     }
                 }
             }
             for (t, &apron) in APRONS.iter().enumerate() {
                 for b in 0..g[1] {
                     let out = (i * g[1] + b) * g[2];
+                    let (lo, hi) = (&mut slice_lo[t][out..out + g[2]], &mut slice_hi[t][out..out + g[2]]);
                     for j in window(b, s1, apron) {
-                        for c in 0..g[2] {
-                            slices[t][out + c] = hull(slices[t][out + c], rows[t][j * g[2] + c]);
-                        }
+                        let src = j * g[2]..(j + 1) * g[2];
+                        lo.iter_mut().zip(&rows_lo[t][src.clone()]).for_each(|(x, &y)| *x = lower(*x, y));
+                        hi.iter_mut().zip(&rows_hi[t][src]).for_each(|(x, &y)| *x = higher(*x, y));
                     }
                 }
             }
         }
-        drop(rows);
         // Along axis 0: (g0, g1, g2).
-        let mut ranges = slices.into_iter().zip(APRONS).map(|(slice, apron)| {
+        let mut ranges = slice_lo.into_iter().zip(slice_hi).zip(APRONS).map(|((slo, shi), apron)| {
             let (mut min, mut max) = (vec![f32::INFINITY; g[0] * plane], vec![f32::NEG_INFINITY; g[0] * plane]);
             for a in 0..g[0] {
+                let (lo, hi) = (&mut min[a * plane..(a + 1) * plane], &mut max[a * plane..(a + 1) * plane]);
                 for i in window(a, s0, apron) {
-                    for o in 0..plane {
-                        let r = slice[i * plane + o];
-                        min[a * plane + o] = min[a * plane + o].min(r.0);
-                        max[a * plane + o] = max[a * plane + o].max(r.1);
-                    }
+                    let src = i * plane..(i + 1) * plane;
+                    lo.iter_mut().zip(&slo[src.clone()]).for_each(|(x, &y)| *x = lower(*x, y));
+                    hi.iter_mut().zip(&shi[src]).for_each(|(x, &y)| *x = higher(*x, y));
                 }
             }
             (min, max)
         });
         let (min, max) = ranges.next().expect("the plain ranges");
-        MinMaxGrid { dims: g, min, max, wide: ranges.collect(), has_nan: false }
+        MinMaxGrid { dims: g, min, max, wide: ranges.collect(), has_nan }
     }
 
     /// The ranges of the segments centred in each cell ([`segment_ranges`]):
