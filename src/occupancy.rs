@@ -18,10 +18,10 @@ use crate::volume::{sanitize, VolumeView, Voxels};
 pub const BLOCK: usize = 8;
 
 /// Voxels each set of wide ranges reaches past a cell's apron: one voxel
-/// for segments up to about four voxels long, half a cell for those up to
-/// ten. Past what an apron holds, ranges widen by whole cells, which more
-/// than doubles a cell's window: 8 + 2 * 9 voxels where 8 + 2 * 2 or
-/// 8 + 2 * 5 would do.
+/// for segments up to 3 voxels long, half a cell for those up to 9. Past
+/// what an apron holds, ranges widen by whole cells, which more than
+/// doubles a cell's window: 8 + 2 * 9 voxels where 8 + 2 * 2 or 8 + 2 * 5
+/// would do.
 pub const WIDE_APRONS: [usize; 2] = [1, BLOCK / 2];
 
 /// Which ranges hold the values of every pre-integrated segment centred in
