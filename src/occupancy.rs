@@ -59,17 +59,14 @@ impl MinMaxGrid {
             Voxels::F32(v) => Self::build_from(vol.dims, |i, row| {
                 let src = &v[row_of(i, row.len())];
                 row.iter_mut().zip(src).for_each(|(r, &x)| *r = sanitize(x));
-                src.iter().any(|x| x.is_nan())
             }),
             Voxels::U8(v) => Self::build_from(vol.dims, |i, row| {
                 let src = &v[row_of(i, row.len())];
                 row.iter_mut().zip(src).for_each(|(r, &x)| *r = (x as f64 / 255.0) as f32);
-                false
             }),
             Voxels::U16(v) => Self::build_from(vol.dims, |i, row| {
                 let src = &v[row_of(i, row.len())];
                 row.iter_mut().zip(src).for_each(|(r, &x)| *r = (x as f64 / 65535.0) as f32);
-                false
             }),
         }
     }
@@ -79,9 +76,8 @@ impl MinMaxGrid {
     /// the cell can read; then the wide ranges), one axis at a time and one
     /// slice of axis 0 at a time, so that what is held besides the grid is a
     /// slice's rows and a 64th of the voxels' count per apron. `fill(r,
-    /// row)` writes the values of row r (axis 2) and says whether one is
-    /// NaN.
-    fn build_from(dims: [usize; 3], fill: impl Fn(usize, &mut [f32]) -> bool) -> MinMaxGrid {
+    /// row)` writes the values of row r (axis 2).
+    fn build_from(dims: [usize; 3], fill: impl Fn(usize, &mut [f32])) -> MinMaxGrid {
         const APRONS: [usize; 3] = [1, 1 + WIDE_APRONS[0], 1 + WIDE_APRONS[1]];
         const _: () = assert!(APRONS[0] < APRONS[1] && APRONS[1] < APRONS[2] && APRONS[2] <= BLOCK);
         let [s0, s1, s2] = dims;
@@ -110,7 +106,8 @@ impl MinMaxGrid {
         let mut has_nan = false;
         for i in 0..s0 {
             for j in 0..s1 {
-                has_nan |= fill(i * s1 + j, &mut row);
+                fill(i * s1 + j, &mut row);
+                has_nan |= row.iter().fold(false, |a, v| a | v.is_nan());
                 for ((l, h), &v) in row_lo[PAD..].iter_mut().zip(&mut row_hi[PAD..]).zip(&row) {
                     (*l, *h) = if v.is_nan() { (f32::INFINITY, f32::NEG_INFINITY) } else { (v, v) };
                 }
