@@ -546,11 +546,12 @@ class VolumeRenderer:
           range: integer data exactly, float data rounded to a 131068th of
           its range (finite values only). 2 bytes per voxel, or 8 with
           normals, which then share the value's texel at 16 bits per
-          component: the lit 256^3 benchmark scene renders 1.2-1.4x
+          component: the lit 256^3 benchmark scene renders 1.16-1.39x
           faster than at float32 on lavapipe (benches/precision_ab.py),
           mostly because its values within half a code of 0 read as 0 and
           their cells become empty; at equal samples 5% faster at 256^3 and
-          3-8% slower at 192^3 and below (benches/volume_size.py). Needs a device with 16-bit normalized textures
+          3-8% slower at 192^3 and below (benches/volume_size.py). Needs a
+          device with 16-bit normalized textures
           (``device_limits()["norm16_textures"]``); not for bricked volumes.
         - ``"float32"``: exact values, 4 bytes per voxel (integer data is
           stored exactly, in 1 or 2 bytes per voxel). With
@@ -768,18 +769,20 @@ class VolumeRenderer:
             return
         # The same checks load_volume makes before it uploads: the device's
         # limits and budget (else bricks), and this machine's memory.
-        try:
-            if self._needs_bricks(self.volume, chosen):
-                raise ValueError("the texels need bricks")
-            _check_volume_fits(self.volume, chosen)
-        except ValueError as e:
+        why = "they would need bricks" if self._needs_bricks(self.volume, chosen) else None
+        if why is None:
+            try:
+                _check_volume_fits(self.volume, chosen)
+            except ValueError as e:
+                why = str(e)
+        if why is not None:
             key = ("fixed16 kept", self._value_map)
             if key in self._warned:
                 return
             self._warned.add(key)
             warnings.warn("the transfer functions' value range is narrower than half the data's range, so 16-bit "
                           "fixed point moves values by more than 1.5e-5 of it; the volume stays in fixed point "
-                          f"because float32 texels would not fit in one texture ({e}): load_volume(..., "
+                          f"because float32 texels would not fit in one texture ({why}): load_volume(..., "
                           "precision='float32') bricks it", UserWarning, stacklevel=4)
             return
         self._engine.set_volume(prepare_voxels(self.volume.data), prepare_normals(self.volume.normals),
