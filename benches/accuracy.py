@@ -288,7 +288,7 @@ def write_tables(results, command, device):
                                 f"{p['choose_s'] * 1e3:.0f} ms, {p['choose_s'] * 1e3 / p['ms']:.1f} frames, "
                                 f"{p['pilot_renders']} pilots"])
             if p["engine"].startswith("vtk"):
-                best = cheapest_at(pts, p["max"], "max_rgb")
+                best = cheapest_at(pts, p["max"], peer_key(p))
                 peers.append([res["scene"], p["engine"], f"{p['step']:g}", f"{p['ms']:.0f}", f"{p['max']:.0f}",
                               f"{p['finest_vs_half']:.0f}",
                               f"{short(best)}, {p['ms'] / best['ms']:.1f}x" if best else ""])

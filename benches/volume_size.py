@@ -74,8 +74,8 @@ def main():
                 ["volume", "samples (M)", "float32 MiB", "fixed16 MiB", "float32 ms", "fixed16 ms",
                  "float32 ns per sample", "fixed16 ns per sample", "float32 / fixed16"],
                 rows, device=device,
-                note="The benchmark frame (512x512, balanced, lit, no empty-space skipping) over the same scene sampled at each "
-                "size; "
+                note="The benchmark frame (512x512, balanced, lit, no empty-space skipping) over the same scene "
+                "sampled at each size; "
                 f"both storages rendered alternately, median of {args.frames} frames after a warm-up.")
 
 

@@ -119,7 +119,8 @@ mod tests {
         let v: Vec<f32> = (0..10_000).map(|i| ((i as f32) * 0.7137).sin() * 3.0 - 1000.0).collect();
         let f = Fixed16::encode(Voxels::F32(&v)).unwrap();
         let range = 6.0;
-        let err = v.iter().zip(&f.codes).map(|(&x, &c)| (Fixed16::decode(f.map, c) - x as f64).abs()).fold(0.0, f64::max);
+        let err =
+            v.iter().zip(&f.codes).map(|(&x, &c)| (Fixed16::decode(f.map, c) - x as f64).abs()).fold(0.0, f64::max);
         assert!(err <= range / 131068.0 * 1.0001, "{err}");
         assert!(err > range / 131068.0 * 0.5);
         assert_eq!(*f.codes.iter().max().unwrap(), CODE_MAX as i16);
