@@ -57,6 +57,10 @@ struct Params {
     // A brick's core box, whose segments it marches (when bricked == 1).
     core_lo: vec4<f32>,
     core_hi: vec4<f32>,
+    // Occupancy cells that are not empty: their box in voxel units
+    // (texture axis order); w = 1 where known.
+    occupied_lo: vec4<f32>,
+    occupied_hi: vec4<f32>,
     bricked: u32,
     // Finished rays write their raw state (partial images for compositing).
     keep_state: u32,

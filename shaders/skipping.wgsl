@@ -47,3 +47,50 @@ fn cube_exit(tc: vec3<f32>, d: vec3<f32>, uniform: bool) -> f32 {
     let ta = select(vec3<f32>(3.0e38), t, moving);
     return max(min(ta.x, min(ta.y, ta.z)), 0.0);
 }
+
+// March indices [a, b) outside which every segment is centred in an empty
+// cell: those of the ray's segments whose midpoints may lie in the box of
+// cells that are not empty (Params.occupied_*). A ray marches from a and
+// is done at b. (0, r.n) where the box is not known; (0, 0) where the ray
+// misses it. Nominal midpoints, (k + shift + 1/2) steps past the entry, are
+// compared a thousandth of a step generously, as leaps do; the chord's first
+// and last segments, which may be shorter, stay in whenever their
+// neighbours are.
+fn occupied_window(r: Ray) -> vec2<u32> {
+    if (!SKIP_EMPTY || P.bricked == 1u || P.occupied_hi.w != 1.0) {
+        return vec2<u32>(0u, r.n);
+    }
+    let dims = vec3<f32>(textureDimensions(volume));
+    let u0 = voxel_coords(tex_of(point_at(r, 0.0)));
+    let du = (r.d * P.tex_scale.xyz).zyx * dims;
+    var a = 0.0;
+    var b = r.chord;
+    for (var k = 0; k < 3; k++) {
+        if (du[k] == 0.0) {
+            if (u0[k] < P.occupied_lo[k] || u0[k] > P.occupied_hi[k]) {
+                return vec2<u32>(0u);
+            }
+        } else {
+            let ta = (P.occupied_lo[k] - u0[k]) / du[k];
+            let tb = (P.occupied_hi[k] - u0[k]) / du[k];
+            a = max(a, min(ta, tb));
+            b = min(b, max(ta, tb));
+        }
+    }
+    if (!(b >= a)) {
+        return vec2<u32>(0u);
+    }
+    let h = P.step_size;
+    var lo = u32(clamp(ceil(a / h - 0.5 - r.shift - 1e-3), 0.0, f32(r.n)));
+    var hi = u32(clamp(floor(b / h - 0.5 - r.shift + 1e-3) + 1.0, 0.0, f32(r.n)));
+    if (lo <= 1u) {
+        lo = 0u;
+    }
+    if (hi + 1u >= r.n) {
+        hi = r.n;
+    }
+    if (BACK_TO_FRONT) {
+        return vec2<u32>(r.n - hi, r.n - lo);
+    }
+    return vec2<u32>(lo, hi);
+}

@@ -419,6 +419,23 @@ pub fn empty_radius(occ: &[u8], dims: [usize; 3]) -> Vec<u8> {
     dist.into_iter().map(|r| r.min(cap) as u8).collect()
 }
 
+/// The box of cells of `occ` (0 = empty) that are not empty: per axis the
+/// first and last such cell's index, or None where every cell is empty. A
+/// ray's segments centred outside it add nothing, so the march can start
+/// where the ray enters it and end where it leaves.
+pub fn occupied_bounds(occ: &[u8], dims: [usize; 3]) -> Option<[[usize; 2]; 3]> {
+    let [_, d1, d2] = dims;
+    let mut bounds: Option<[[usize; 2]; 3]> = None;
+    for (i, _) in occ.iter().enumerate().filter(|(_, &o)| o != 0) {
+        let at = [i / (d1 * d2), (i / d2) % d1, i % d2];
+        let b = bounds.get_or_insert([[at[0]; 2], [at[1]; 2], [at[2]; 2]]);
+        for a in 0..3 {
+            b[a] = [b[a][0].min(at[a]), b[a][1].max(at[a])];
+        }
+    }
+    bounds
+}
+
 /// Added to the radius byte of a uniform cell (`uniform_radius`); empty
 /// radii stay below it.
 pub const UNIFORM_FLAG: u8 = 128;
@@ -581,6 +598,20 @@ mod tests {
         assert_eq!(segment_ranges(0.0098, [0.01, 0.01, 0.001]), wide(0, [0, 0, 1]));
         assert_eq!(segment_ranges(0.16, [0.01, 0.02, 0.001]), wide(1, [1, 0, 10]));
         assert_eq!(segment_ranges(1.0, [0.0, 1.0, 1.0]), wide(0, [1_000_000, 0, 0]));
+    }
+
+    #[test]
+    fn occupied_bounds_hold_every_cell_that_is_not_empty() {
+        let dims = [5, 7, 9];
+        let mut occ = vec![0u8; 5 * 7 * 9];
+        assert_eq!(occupied_bounds(&occ, dims), None);
+        for &(a, b, c) in &[(1, 6, 2), (3, 2, 8), (2, 4, 5)] {
+            occ[(a * 7 + b) * 9 + c] = 3;
+        }
+        assert_eq!(occupied_bounds(&occ, dims), Some([[1, 3], [2, 6], [2, 8]]));
+        let mut one = vec![0u8; 5 * 7 * 9];
+        one[(4 * 7 + 0) * 9 + 3] = 1;
+        assert_eq!(occupied_bounds(&one, dims), Some([[4, 4], [0, 0], [3, 3]]));
     }
 
     #[test]

@@ -7,6 +7,7 @@
 
 use crate::bricks::BrickGrid;
 use crate::config::RenderConfig;
+use crate::occupancy::BLOCK;
 use crate::preintegrate;
 use crate::scene::{Bounds, RayBasis, Light, LightKind};
 use crate::transfer::ValueMap;
@@ -84,6 +85,11 @@ uniform_block! {
         /// A brick's core box (when `bricked`).
         pub core_lo: [f32; 4],
         pub core_hi: [f32; 4],
+        /// The box of occupancy cells that are not empty, in voxel units
+        /// and texture axis order (faces on the grid's boundary pushed out
+        /// far); w is 1 where it is known (`with_occupied`).
+        pub occupied_lo: [f32; 4],
+        pub occupied_hi: [f32; 4],
         pub bricked: u32,
         /// Finished rays write their raw state: a partial image.
         pub keep_state: u32,
@@ -182,6 +188,8 @@ impl Params {
             tex_offset: [0.0; 4],
             core_lo: [0.0; 4],
             core_hi: [0.0; 4],
+            occupied_lo: [0.0; 4],
+            occupied_hi: [0.0; 4],
             bricked: 0,
             keep_state: 0,
             only_dispatch: 0,
@@ -190,6 +198,22 @@ impl Params {
             tile_y: 0,
             tile_pad: [0; 2],
         }
+    }
+
+    /// The block with the box of occupied cells `cells` (inclusive cell
+    /// indices per numpy axis) of a grid of `dims` cells, BLOCK voxels a
+    /// side. A face on the grid's boundary moves out past any ray's reach
+    /// (a sample there reads the boundary cell, whatever its coordinate).
+    pub fn with_occupied(mut self, cells: [[usize; 2]; 3], dims: [usize; 3]) -> Params {
+        const FAR: f32 = 1.0e7;
+        for t in 0..3 {
+            let a = 2 - t;
+            let [lo, hi] = cells[a];
+            self.occupied_lo[t] = if lo == 0 { -FAR } else { (lo * BLOCK) as f32 };
+            self.occupied_hi[t] = if hi + 1 >= dims[a] { FAR } else { ((hi + 1) * BLOCK) as f32 };
+        }
+        self.occupied_hi[3] = 1.0;
+        self
     }
 
     /// This frame's block for the brick of `grid` numbered `index`, whose

@@ -129,6 +129,9 @@ impl GpuRenderer {
             max_extinction: self.max_extinction(cfg),
         };
         let mut params = Params::new(&inputs, &basis, light, cfg);
+        if let Some(cells) = self.occupancy.occupied {
+            params = params.with_occupied(cells, self.occupancy.dims);
+        }
         if vol.gradients {
             // The texture has a one-voxel border: the box maps to its inner texels.
             params.border = 1;
