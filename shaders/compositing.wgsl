@@ -353,12 +353,6 @@ fn march_integrate(r: Ray) {
     var s = start_integration(r);
     var stopped = false;
     var taken = 0u;
-    // While the ray crosses empty space, the occupancy grid is read before
-    // the volume: a segment centred in an empty cell leaps without its
-    // fetch (its sample would be 0 whatever the volume holds there). After
-    // a segment that was not empty the fetch comes first, as a dense
-    // region's next segment is rarely in an empty cell.
-    var skipping = true;
     // Past the window of occupied cells the ray is done: it ends as if it
     // had marched every segment (and reports a cut short by max_steps so).
     let window = occupied_window(r);
@@ -381,24 +375,23 @@ fn march_integrate(r: Ray) {
         let tc = tex_of(p);
         var g: Segment;
         taken += 1u;
-        if (SKIP_EMPTY && skipping) {
-            let next = cube_leap(r, i, si, mid, tc, true);
-            if (next != 0xffffffffu) {
-                i = next - 1u;
-                continue;
-            }
-        }
         var again = false;
         if (PRE_INTEGRATED) {
             g = preintegrated_segment(r, si, sp, &s, &again);
         } else {
             g = midpoint_segment(volume_texel(tc), sp.y);
         }
+        // A segment that only fetched its near value may leap too: centred
+        // in an empty cell, it is empty whatever its values.
         let empty = !(g.x > 0.0);
-        skipping = empty && !again;
         var run = 0xffffffffu;
-        if (UNIFORM_CELLS && !empty && sp.y == P.step_size) {
-            run = cube_leap(r, i, si, mid, tc, false);
+        if ((SKIP_EMPTY && empty) || (UNIFORM_CELLS && !empty && sp.y == P.step_size)) {
+            let next = cube_leap(r, i, si, mid, tc, empty);
+            if (empty && next != 0xffffffffu) {
+                i = next - 1u;
+                continue;
+            }
+            run = next;
         }
         if (again) {
             // The same segment again, now with its near value (u32
