@@ -118,8 +118,8 @@ def test_rays_march_only_where_they_cross_the_occupied_box(pre, order, side):
                                                      light=Light.ambient_only(1.0))
     assert plain[..., 3].max() > 0.3
     assert np.abs(plain - skipped).max() < 1 / 255
-    # The box is 3/8 of the volume a side; measured 0.21-0.27 of the samples.
-    assert n_skip < 0.35 * n_plain, (n_plain, n_skip)
+    # The box is 3/8 of the volume a side; measured 0.03-0.11 of the samples.
+    assert n_skip < 0.2 * n_plain, (n_plain, n_skip)
 
 
 def test_empty_transfer_function_takes_almost_no_samples():
