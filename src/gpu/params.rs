@@ -247,6 +247,15 @@ mod tests {
     use crate::gpu::shader;
 
     #[test]
+    fn occupied_box_is_in_voxels_and_texture_axis_order() {
+        // Cells [1, 2] x [0, 3] x [4, 4] of a 5 x 4 x 8 grid (numpy order):
+        // texture x is numpy axis 2; faces on the grid's boundary move far out.
+        let p = Params::default().with_occupied([[1, 2], [0, 3], [4, 4]], [5, 4, 8]);
+        assert_eq!(p.occupied_lo, [32.0, -1.0e7, 8.0, 0.0]);
+        assert_eq!(p.occupied_hi, [40.0, 1.0e7, 24.0, 1.0]);
+    }
+
+    #[test]
     fn wgsl_block_has_the_rust_layout() {
         let module = naga::front::wgsl::parse_str(&shader::source()).expect("the shader parses");
         let ty = module
