@@ -168,3 +168,37 @@ def test_skipping_is_left_off_where_few_cells_are_empty():
     (plain, n_plain, _), (skipped, n_skip, r) = both(Volume(d), OpacityTransferFunction.linear(0.0, 0.3))
     assert 0.05 < r.empty_fraction() < 0.25
     assert n_skip == n_plain and np.array_equal(plain, skipped)
+
+
+def test_grids_kept_for_alternating_frames_follow_every_change():
+    # Plain and pre-integrated frames leap over grids of different ranges;
+    # the renderer keeps both, so frames alternating between them upload
+    # nothing but their uniforms. A new table, value range or volume makes
+    # other cells visible: kept grids must then go, or frames would leap
+    # over what now shows.
+    data = create_sample_volume(64, "torus")
+    cmap = ColorTransferFunction.from_colormap("plasma")
+    otf = OpacityTransferFunction.peaks([0.5], opacity=0.8, eps=0.03)
+    plain = RenderConfig(step_size=0.05, max_steps=100, early_ray_termination=False)
+    pre = plain.replace(pre_integrated=True)
+
+    def check(volume, table, value_range):
+        f = make_renderer(Volume(volume), ctf=cmap, otf=table, value_range=value_range, light=Light.ambient_only(1.0))
+        for cfg in (pre, plain, pre, plain):
+            want = f.render(dtype=np.float32, premultiplied=True, config=cfg)
+            got = r.render(dtype=np.float32, premultiplied=True, config=cfg)
+            assert want[..., 3].max() > 0.2
+            assert np.abs(got - want).max() < 1e-4, (value_range, cfg.pre_integrated)
+
+    r = make_renderer(Volume(data), ctf=cmap, otf=otf, light=Light.ambient_only(1.0))
+    check(data, otf, None)
+    for cfg in (plain, pre, plain, pre):
+        r.render(dtype=np.float32, premultiplied=True, config=cfg)
+        assert r.last_frame_stats["uploaded_bytes"] < 512
+    # A new table and value range.
+    r.set_transfer_functions(cmap, otf, value_range=(0.0, 0.6))
+    check(data, otf, (0.0, 0.6))
+    # A new volume under the same table and value range.
+    shifted = np.ascontiguousarray(np.roll(data, 5, axis=1))
+    r.load_volume(Volume(shifted))
+    check(shifted, otf, (0.0, 0.6))

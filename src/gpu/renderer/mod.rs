@@ -42,6 +42,11 @@ const INITIAL_SAMPLES_PER_SECOND: f64 = 1e8;
 /// needed, and the samples taken (two words).
 const STATS_BYTES: u64 = 12;
 
+/// Occupancy grids kept besides the current one: the plain and
+/// pre-integrated grids of a table, and one for the isosurface. A grid
+/// costs two bytes per 8^3 voxels.
+const SPARE_GRIDS: usize = 2;
+
 /// What one frame did, for tests and benchmarks.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct FrameStats {
@@ -84,6 +89,13 @@ pub struct GpuRenderer {
     volume: Option<VolumeGpu>,
     tables: Tables,
     occupancy: Occupancy,
+    /// Grids of the loaded volume built for other sources, most recent
+    /// first (at most SPARE_GRIDS): frames that alternate between plain and
+    /// pre-integrated segments, or between models, switch grids instead of
+    /// rebuilding one each frame. Emptied whenever the volume, the table or
+    /// the value map changes, and unused with bricks (whose grids are their
+    /// own).
+    spare_grids: Vec<Occupancy>,
     /// Sampled value -> table domain.
     value_map: ValueMap,
     /// Crop box in world coordinates (None: the whole volume).
@@ -175,6 +187,7 @@ impl GpuRenderer {
             volume: None,
             tables: Tables::new(),
             occupancy: Occupancy::new(),
+            spare_grids: Vec::new(),
             value_map: ValueMap::IDENTITY,
             clip: None,
             skip_empty: true,
@@ -301,6 +314,7 @@ impl GpuRenderer {
         self.brick_frame = None;
         self.bind_group = None;
         self.occupancy.source = None;
+        self.spare_grids.clear();
         if !self.tables.rows.is_empty() {
             self.update_occupancy(self.table_source(None))?;
         }
@@ -336,6 +350,7 @@ impl GpuRenderer {
         self.check_process()?;
         let bytes = self.tables.upload_lut(&self.ctx, lut)?;
         self.bind_group = None;
+        self.spare_grids.clear();
         if self.volume.is_some() {
             self.update_occupancy(self.table_source(self.occupancy.source))?;
         }
@@ -350,6 +365,7 @@ impl GpuRenderer {
         if map != self.value_map {
             self.value_map = map;
             let last = self.occupancy.source.take();
+            self.spare_grids.clear();
             self.invalidate_brick_occupancy();
             if self.volume.is_some() && !self.tables.rows.is_empty() {
                 self.update_occupancy(self.table_source(last))?;
@@ -367,12 +383,25 @@ impl GpuRenderer {
     /// Which occupancy cells the current table can make visible (or, for
     /// the isosurface, can reach the iso value).
     fn update_occupancy(&mut self, source: OccSource) -> Result<(), Error> {
-        let Some(vol) = self.volume.as_ref() else {
+        if self.volume.is_none() {
             return Ok(());
-        };
+        }
         if self.occupancy.source == Some(source) {
             return Ok(());
         }
+        let spares = self.bricks.is_none();
+        if let Some(k) = self.spare_grids.iter().position(|o| spares && o.source == Some(source)) {
+            let found = self.spare_grids.remove(k);
+            let last = std::mem::replace(&mut self.occupancy, found);
+            self.keep_spare(last);
+            self.bind_group = None;
+            return Ok(());
+        }
+        let last = std::mem::replace(&mut self.occupancy, Occupancy::new());
+        if spares {
+            self.keep_spare(last);
+        }
+        let vol = self.volume.as_ref().expect("checked above");
         let (occ, uniform) = match source {
             OccSource::Lut { ranges, form, .. } => {
                 let grid = vol.grid.for_segments(ranges);
@@ -391,6 +420,14 @@ impl GpuRenderer {
         self.pending_upload += self.occupancy.upload(&self.ctx, &vol.grid, &occ, uniform.as_deref(), source)?;
         self.bind_group = None;
         Ok(())
+    }
+
+    /// Keeps a grid the renderer moves away from among the spares.
+    fn keep_spare(&mut self, grid: Occupancy) {
+        if grid.source.is_some() {
+            self.spare_grids.insert(0, grid);
+            self.spare_grids.truncate(SPARE_GRIDS);
+        }
     }
 
     /// The table's cells, built when the table, value map or volume changes,
