@@ -103,6 +103,7 @@ impl GpuRenderer {
         self.volume = None;
         self.bind_group = None;
         self.occupancy = Occupancy::new();
+        self.spare_grids.clear();
         self.brick_frame = None;
         self.bricks = Some(Bricks { grid, bounds, slots });
         Ok(())
