@@ -462,14 +462,13 @@ pub struct Occupancy {
     /// Fraction of the occupied cells that are uniform (0 where not built).
     pub uniform_fraction: f64,
     /// The box of cells that are not empty (`occupancy::occupied_bounds`),
-    /// in the grid's (numpy) axis order, and the grid's dimensions.
+    /// in the grid's (numpy) axis order.
     pub occupied: Option<[[usize; 2]; 3]>,
-    pub dims: [usize; 3],
 }
 
 impl Occupancy {
     pub fn new() -> Occupancy {
-        Occupancy { view: None, source: None, empty_fraction: 0.0, uniform_fraction: 0.0, occupied: None, dims: [0; 3] }
+        Occupancy { view: None, source: None, empty_fraction: 0.0, uniform_fraction: 0.0, occupied: None }
     }
 
     /// Uploads the grid `occ` (0 = empty) of `grid`'s cells, built from
@@ -503,7 +502,6 @@ impl Occupancy {
         let view = ctx.texture_with_data("uploading the occupancy grid", "occupancy", size, D3, rg8, 1, &data)?;
         self.empty_fraction = occ.iter().filter(|&&o| o == 0).count() as f64 / occ.len() as f64;
         self.occupied = occupied_bounds(occ, grid.dims);
-        self.dims = grid.dims;
         self.view = Some(view);
         self.source = Some(source);
         Ok(data.len() as u64)

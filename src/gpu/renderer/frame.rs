@@ -130,7 +130,7 @@ impl GpuRenderer {
         };
         let mut params = Params::new(&inputs, &basis, light, cfg);
         if let Some(cells) = self.occupancy.occupied {
-            params = params.with_occupied(cells, self.occupancy.dims);
+            params = params.with_occupied(cells, vol.grid.dims);
         }
         if vol.gradients {
             // The texture has a one-voxel border: the box maps to its inner texels.

@@ -93,8 +93,8 @@ pub struct GpuRenderer {
     /// first (at most SPARE_GRIDS): frames that alternate between plain and
     /// pre-integrated segments, or between models, switch grids instead of
     /// rebuilding one each frame. Emptied whenever the volume, the table or
-    /// the value map changes, and unused with bricks (whose grids are their
-    /// own).
+    /// the value map changes, and empty while bricks are loaded (their
+    /// grids are their own: none is kept then).
     spare_grids: Vec<Occupancy>,
     /// Sampled value -> table domain.
     value_map: ValueMap,
@@ -389,8 +389,7 @@ impl GpuRenderer {
         if self.occupancy.source == Some(source) {
             return Ok(());
         }
-        let spares = self.bricks.is_none();
-        if let Some(k) = self.spare_grids.iter().position(|o| spares && o.source == Some(source)) {
+        if let Some(k) = self.spare_grids.iter().position(|o| o.source == Some(source)) {
             let found = self.spare_grids.remove(k);
             let last = std::mem::replace(&mut self.occupancy, found);
             self.keep_spare(last);
@@ -398,7 +397,7 @@ impl GpuRenderer {
             return Ok(());
         }
         let last = std::mem::replace(&mut self.occupancy, Occupancy::new());
-        if spares {
+        if self.bricks.is_none() {
             self.keep_spare(last);
         }
         let vol = self.volume.as_ref().expect("checked above");
