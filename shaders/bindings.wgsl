@@ -61,6 +61,9 @@ struct Params {
     // (texture axis order); w = 1 where known.
     occupied_lo: vec4<f32>,
     occupied_hi: vec4<f32>,
+    // Transfer-function units a value can change by per voxel moved along
+    // each texture axis (refined pre-integration, compositing.wgsl).
+    slopes: vec4<f32>,
     bricked: u32,
     // Finished rays write their raw state (partial images for compositing).
     keep_state: u32,

@@ -38,6 +38,17 @@ fn preint_uv(vf: f32, vb: f32) -> vec2<f32> {
     return (clamp(vec2<f32>(vf, vb), vec2<f32>(0.0), vec2<f32>(1.0)) * (m - 1.0) + 0.5) / size;
 }
 
+// The opacity the transfer function gains and loses over the values in
+// [a, b], from its entries ⌊a(m-1)⌋ to ⌈b(m-1)⌉: the row below the last
+// holds the running sum of |opacity change| from entry to entry.
+fn opacity_variation(a: f32, b: f32) -> f32 {
+    let m = f32(P.lut_size);
+    let row = i32(textureDimensions(preint).y) - 2;
+    let i0 = i32(floor(clamp(a, 0.0, 1.0) * (m - 1.0)));
+    let i1 = i32(ceil(clamp(b, 0.0, 1.0) * (m - 1.0)));
+    return textureLoad(preint, vec2<i32>(i1, row), 0).r - textureLoad(preint, vec2<i32>(i0, row), 0).r;
+}
+
 // Where it holds the transfer function's entry for value v: its last row is
 // the table itself, read at the texture's top edge, where clamp-to-edge
 // filtering mixes that row with nothing but itself.
@@ -67,6 +78,14 @@ struct Integration {
     carry_at: u32,
     carry_v: f32,
     carry_light: f32,
+    // A refined segment (REFINE) in progress: segment `sub_at` has taken
+    // its first `sub - 1` samples (sub = 0: none in progress), whose
+    // optical depth and colour composited front to back along the ray are
+    // (sub_x, sub_add).
+    sub_at: u32,
+    sub: u32,
+    sub_x: f32,
+    sub_add: vec3<f32>,
 };
 
 // One segment before lighting: its optical depth x, the colour it emits,
@@ -94,6 +113,10 @@ fn start_integration(r: Ray) -> Integration {
     s.carry_at = 0xffffffffu;
     s.carry_v = 0.0;
     s.carry_light = 0.0;
+    s.sub_at = 0xffffffffu;
+    s.sub = 0u;
+    s.sub_x = 0.0;
+    s.sub_add = vec3<f32>(0.0);
     return s;
 }
 
@@ -103,15 +126,19 @@ fn start_integration(r: Ray) -> Integration {
 // without it (the ray's first, or the first after a leap or a shorter
 // segment) fetches that boundary instead and sets `again`, so that the
 // caller marches the segment once more; a shorter segment (at the chord's
-// ends) uses the midpoint rule. One volume fetch and one table fetch per
-// call, each chosen by select: llvmpipe runs both sides of a branch under a
-// lane mask whenever any lane takes each side, so fetches in alternative
-// branches would all be paid on every segment (a shorter segment's own
-// transfer-function lookup cost 12-18% of the frame before it moved into
-// the pre-integration texture). A full segment's light is the mean of the
-// light at its two ends (as in the f64 integrator), each computed once from
-// the texel fetched there: normals packed with the values then cost no
-// fetch of their own.
+// ends) uses the midpoint rule. A full segment that needs refining
+// (`needs_refining`) sets `again` too and is then marched REFINE times more,
+// one midpoint sample of its REFINE pieces each time (in ray order, in
+// either march order), and comes out whole after the last. One volume fetch
+// and one table fetch per call, each chosen by select: llvmpipe runs both
+// sides of a branch under a lane mask whenever any lane takes each side, so
+// fetches in alternative branches would all be paid on every segment (a
+// shorter segment's own transfer-function lookup cost 12-18% of the frame
+// before it moved into the pre-integration texture, and refined samples in
+// a loop of their own made every segment of a frame 1.6x slower, none
+// refined). A full segment's light is the mean of the light at its two ends
+// (as in the f64 integrator), each computed once from the texel fetched
+// there: normals packed with the values then cost no fetch of their own.
 fn preintegrated_segment(r: Ray, si: u32, sp: vec2<f32>, s: ptr<function, Integration>,
                          again: ptr<function, bool>) -> Segment {
     let h = P.step_size;
@@ -127,18 +154,22 @@ fn preintegrated_segment(r: Ray, si: u32, sp: vec2<f32>, s: ptr<function, Integr
         at_near = sp.x + h;
         at_far = sp.x;
     }
-    let carried = full && (*s).carry_at == near;
-    let primes = full && !carried;
-    let at = select(select(sp.x + 0.5 * sp.y, at_near, primes), at_far, carried);
+    let piece = h / f32(max(REFINE, 1u));
+    let sub = REFINE > 0u && full && (*s).sub > 0u && (*s).sub_at == si;
+    let carried = full && !sub && (*s).carry_at == near;
+    let primes = full && !sub && !carried;
+    let at_sub = sp.x + (f32((*s).sub) - 0.5) * piece;
+    let at = select(select(select(sp.x + 0.5 * sp.y, at_near, primes), at_far, carried), at_sub, sub);
     let here = point_at(r, at);
     let texel = volume_texel(tex_of(here));
     let v = tf_value(texel.r);
     let light = surface_intensity_with(here, texel);
     let held = (*s).carry_v;
     let held_light = (*s).carry_light;
-    (*s).carry_at = select(select(0xffffffffu, near, primes), far, carried);
-    (*s).carry_v = v;
-    (*s).carry_light = light;
+    // A refined segment's samples leave the carried boundary as it was.
+    (*s).carry_at = select(select(select(0xffffffffu, near, primes), far, carried), (*s).carry_at, sub);
+    (*s).carry_v = select(v, held, sub);
+    (*s).carry_light = select(light, held_light, sub);
     *again = primes;
     var vf = held;
     var vb = v;
@@ -148,7 +179,7 @@ fn preintegrated_segment(r: Ray, si: u32, sp: vec2<f32>, s: ptr<function, Integr
     }
     let known = !is_nan(vf) && !is_nan(vb);
     let uv = select(preint_uv(select(0.0, vf, known), select(0.0, vb, known)),
-                    preint_lut_uv(select(0.0, v, !is_nan(v))), !full);
+                    preint_lut_uv(select(0.0, v, !is_nan(v))), !full || sub);
     let e = textureSampleLevel(preint, linear_sampler, uv, 0.0);
     if (!full) {
         var m = midpoint_segment_from(texel, e, sp.y);
@@ -159,11 +190,45 @@ fn preintegrated_segment(r: Ray, si: u32, sp: vec2<f32>, s: ptr<function, Integr
     g.x = 0.0;
     g.add = vec3<f32>(0.0);
     g.have_texel = false;
+    if (sub) {
+        let m = midpoint_segment_from(texel, e, piece);
+        (*s).sub_add += exp(-(*s).sub_x) * m.add * light;
+        (*s).sub_x += m.x;
+        let last = (*s).sub == REFINE;
+        (*s).sub = select((*s).sub + 1u, 0u, last);
+        *again = !last;
+        g.x = select(0.0, (*s).sub_x, last);
+        g.add = select(vec3<f32>(0.0), (*s).sub_add, last);
+        return g;
+    }
     if (carried && known) {
+        if (REFINE > 0u && needs_refining(r, vf, vb)) {
+            (*s).sub_at = si;
+            (*s).sub = 1u;
+            (*s).sub_x = 0.0;
+            (*s).sub_add = vec3<f32>(0.0);
+            *again = true;
+            return g;
+        }
         g.x = e.a;
         g.add = e.rgb * (0.5 * (held_light + light));
     }
     return g;
+}
+
+// Whether a full segment from value vf to vb may reach values whose opacity
+// its ramp does not see. Trilinear values change by at most P.slopes per
+// voxel along each texture axis, so along the ray by at most l per unit
+// length; a segment of length h starting at vf and ending at vb then stays
+// within (vf + vb -/+ l h) / 2. It is refined where the transfer function's
+// opacity varies by more than REFINE_EPS over that range (the ramp's own
+// range included: where the values curve, the ramp puts an opacity change
+// at the wrong place along the segment).
+fn needs_refining(r: Ray, vf: f32, vb: f32) -> bool {
+    let du = (r.d * P.tex_scale.xyz).zyx * vec3<f32>(textureDimensions(volume));
+    let reach = 0.5 * dot(P.slopes.xyz, abs(du)) * P.step_size;
+    let mid = 0.5 * (vf + vb);
+    return opacity_variation(mid - reach, mid + reach) > REFINE_EPS;
 }
 
 // A segment from its midpoint texel.

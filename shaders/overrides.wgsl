@@ -8,6 +8,9 @@ override BACK_TO_FRONT: bool = false;
 override JITTER: bool = false;
 // Emission–absorption from the (front, back) table instead of the midpoint.
 override PRE_INTEGRATED: bool = false;
+// Pre-integrated segments whose values may reach an opacity change their
+// ramp misses are taken as this many midpoint samples (0: never).
+override REFINE: u32 = 0u;
 // Points of a Poisson process instead of one midpoint a segment (tracking.wgsl).
 override UNBIASED: bool = false;
 // Unbiased segments take their cell's rate (where any can be below the frame's).

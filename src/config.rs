@@ -62,12 +62,21 @@ pub struct RenderConfig {
     /// Emission–absorption with a pre-integrated table over (front, back)
     /// values per segment instead of one midpoint sample.
     pub pre_integrated: bool,
+    /// With `pre_integrated` (ignored without it): a full segment whose
+    /// values may reach a change of the transfer function's opacity its
+    /// (front, back) ramp does not see is taken as this many midpoint
+    /// samples instead (0: never). See `needs_refining` in the shader and
+    /// `reaches_unseen_opacity` in the f64 integrator for the rule.
+    pub refine: i64,
     /// Each frame an unbiased estimate of the exact integral: points of a
     /// Poisson process composited with opacity sigma / rate (ratio tracking)
     /// instead of one midpoint sample per segment.
     pub unbiased: bool,
     pub order: Order,
 }
+
+/// Most midpoint samples a refined pre-integrated segment takes.
+pub const MAX_REFINE: i64 = 16;
 
 /// The five quality presets, in order from fastest to slowest.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -142,6 +151,7 @@ impl RenderConfig {
             jitter: false,
             jitter_seed: 0,
             pre_integrated: false,
+            refine: 0,
             unbiased: false,
             order: Order::FrontToBack,
         }
@@ -216,6 +226,12 @@ impl RenderConfig {
             return Err(Error::InvalidInput(format!(
                 "pre_integrated applies to the 'emission_absorption' model only, not '{}'",
                 self.model.name()
+            )));
+        }
+        if self.refine != 0 && !(2..=MAX_REFINE).contains(&self.refine) {
+            return Err(Error::InvalidInput(format!(
+                "refine must be 0 (off) or 2..={MAX_REFINE} samples per refined pre-integrated segment, got {}",
+                self.refine
             )));
         }
         if self.unbiased {

@@ -14,6 +14,26 @@ use crate::transfer::eval_lut;
 /// Largest table side: 512^2 entries of 16 bytes (4 MiB).
 pub const MAX_TABLE: usize = 512;
 
+/// With `RenderConfig::refine`, a full segment is refined where the table's
+/// opacity changes by more than this (summed from entry to entry) over the
+/// values the segment can reach: a 64th of the opacity per reference step.
+pub const REFINE_OPACITY_CHANGE: f64 = 1.0 / 64.0;
+
+/// The running sum of |opacity change| from entry to entry of `lut`: entry
+/// i holds the change over entries 0..=i, so the change over entries i..=j
+/// is `[j] - [i]`.
+pub fn opacity_change_sums(lut: &[[f32; 4]]) -> Vec<f32> {
+    let mut sum = 0.0f64;
+    let mut out = Vec::with_capacity(lut.len());
+    for (i, e) in lut.iter().enumerate() {
+        if i > 0 {
+            sum += (e[3] as f64 - lut[i - 1][3] as f64).abs();
+        }
+        out.push(sum as f32);
+    }
+    out
+}
+
 /// The integral along a ramp from `vf` to `vb` over `len_over_ref`
 /// reference steps, by `substeps` pieces each treated as homogeneous
 /// (exact Beer–Lambert within a piece): unlit premultiplied colour

@@ -82,6 +82,7 @@ fn base_frame<'a>(vol: VolumeView<'a>, lut: &'a [[f32; 4]]) -> Frame<'a> {
         adaptive_tolerance: 0.0,
         value_map: ValueMap::IDENTITY,
         clip: None,
+        slopes: None,
     }
 }
 
@@ -93,6 +94,11 @@ fn gradient_shaded_non_cubic_anisotropic() {
     let b = Bounds::new(DVec3::new(-0.6, -0.5, -0.3), DVec3::new(0.6, 0.7, 0.3)).unwrap();
     let vol = VolumeView::new(dims, Voxels::F32(&data), None, b).unwrap();
     compare(&base_frame(vol, &lut), "gradient");
+    // Refined pre-integrated segments: the slopes along anisotropic axes
+    // decide which segments are refined, on both sides alike.
+    let mut f = base_frame(vol, &lut);
+    f.config = RenderConfig { pre_integrated: true, refine: 4, step_size: 0.05, ..RenderConfig::default() };
+    compare(&f, "gradient, refined pre-integration");
 }
 
 /// A volume in data units (here -1000..3000, a CT's Hounsfield range) with
@@ -109,6 +115,9 @@ fn value_map_in_data_units() {
     compare(&f, "value map");
     f.config = RenderConfig { model: pyvr_core::model::Model::Isosurface, iso_value: 0.5, ..RenderConfig::default() };
     compare(&f, "value map, isosurface");
+    // The refinement's reach is in the table's units: the map's scale too.
+    f.config = RenderConfig { pre_integrated: true, refine: 4, step_size: 0.05, ..RenderConfig::default() };
+    compare(&f, "value map, refined pre-integration");
     // u16 storage is read as value / 65535; 12-bit data spans 0..4095.
     let u16s: Vec<u16> = blob(dims).iter().map(|v| (v * 4095.0).round() as u16).collect();
     let vol = VolumeView::new(dims, Voxels::U16(&u16s), None, Bounds::default()).unwrap();

@@ -27,6 +27,7 @@ class RenderConfig:
     jitter: bool
     jitter_seed: int
     pre_integrated: bool
+    refine: int
     unbiased: bool
     order: str
     def __init__(
@@ -45,6 +46,7 @@ class RenderConfig:
         jitter: bool = False,
         jitter_seed: int = 0,
         pre_integrated: bool = False,
+        refine: int = 0,
         unbiased: bool = False,
         order: str = "front_to_back",
     ) -> None: ...

@@ -90,6 +90,10 @@ uniform_block! {
         /// far); w is 1 where it is known (`with_occupied`).
         pub occupied_lo: [f32; 4],
         pub occupied_hi: [f32; 4],
+        /// Transfer-function units a trilinear value can change by per
+        /// voxel moved along each texture axis (`MinMaxGrid::slopes` times
+        /// the value map's scale; `with_slopes`).
+        pub slopes: [f32; 4],
         pub bricked: u32,
         /// Finished rays write their raw state: a partial image.
         pub keep_state: u32,
@@ -190,6 +194,7 @@ impl Params {
             core_hi: [0.0; 4],
             occupied_lo: [0.0; 4],
             occupied_hi: [0.0; 4],
+            slopes: [0.0; 4],
             bricked: 0,
             keep_state: 0,
             only_dispatch: 0,
@@ -213,6 +218,15 @@ impl Params {
             self.occupied_hi[t] = if hi + 1 >= dims[a] { FAR } else { ((hi + 1) * BLOCK) as f32 };
         }
         self.occupied_hi[3] = 1.0;
+        self
+    }
+
+    /// The block with the slopes of a grid's voxels (numpy axis order,
+    /// data units) under a value map of scale `scale`.
+    pub fn with_slopes(mut self, slopes: [f32; 3], scale: f64) -> Params {
+        for t in 0..3 {
+            self.slopes[t] = finite_f32(slopes[2 - t] as f64 * scale);
+        }
         self
     }
 

@@ -58,6 +58,8 @@ pub struct Variant {
     pub back_to_front: bool,
     pub jitter: bool,
     pub pre_integrated: bool,
+    /// Midpoint samples a refined pre-integrated segment takes (0: none).
+    pub refine: u32,
     /// Poisson points composited with opacity sigma / rate (ratio tracking).
     pub unbiased: bool,
     /// Unbiased segments take their occupancy cell's rate (set by the frame,
@@ -100,6 +102,7 @@ impl Variant {
             back_to_front,
             jitter: cfg.jitter,
             pre_integrated: cfg.pre_integrates(),
+            refine: if cfg.pre_integrates() { cfg.refine.clamp(0, u32::MAX as i64) as u32 } else { 0 },
             unbiased: cfg.unbiased && model.integrates() && model != Model::SingleScattering,
             cell_rates: false,
             uniform_cells: false,
@@ -111,10 +114,11 @@ impl Variant {
     /// whose colour and extinction come from the table alone (no normals,
     /// no shadow rays).
     pub fn can_leap_uniform(&self) -> bool {
-        self.model.integrates() && self.shading == Shading::AmbientOnly && !self.unbiased
+        // (Refined segments take samples inside a uniform cube too.)
+        self.model.integrates() && self.shading == Shading::AmbientOnly && !self.unbiased && self.refine == 0
     }
 
-    fn constants(&self) -> [(&'static str, f64); 15] {
+    fn constants(&self) -> [(&'static str, f64); 16] {
         [
             ("SHADING", self.shading.code() as f64),
             ("POINT_LIGHT", self.point_light as u32 as f64),
@@ -127,6 +131,7 @@ impl Variant {
             ("BACK_TO_FRONT", self.back_to_front as u32 as f64),
             ("JITTER", self.jitter as u32 as f64),
             ("PRE_INTEGRATED", self.pre_integrated as u32 as f64),
+            ("REFINE", self.refine as f64),
             ("UNBIASED", self.unbiased as u32 as f64),
             ("CELL_RATES", self.cell_rates as u32 as f64),
             ("UNIFORM_CELLS", self.uniform_cells as u32 as f64),

@@ -75,6 +75,11 @@ pub fn plan(
         }
         samples_per_step = shadow as u64 + 1;
         pass_steps = (PASS_ITERATIONS / samples_per_step).clamp(1, PASS_STEPS as u64);
+    } else if cfg.pre_integrates() && cfg.refine > 0 {
+        // A refined segment is marched once more per sample it takes: the
+        // loop's trip count is bounded as if every segment were (the
+        // time a pass takes is sized by samples, and few segments are).
+        pass_steps = (PASS_ITERATIONS / (cfg.refine as u64 + 1)).clamp(1, PASS_STEPS as u64);
     } else if points_per_step > 1.0 {
         // Loop iterations: the points (a Poisson count, 1.5x its mean covers
         // its spread over a pass) and one more per step that moves on.

@@ -348,7 +348,9 @@ fn float_table(ctx: &GpuContext, rows: &[[f32; 4]], cap: Option<f32>) -> (wgpu::
 }
 
 /// The pre-integration texture's texels and width: the `side` x `side`
-/// table, then the transfer-function table `lut` as one more row, so that a
+/// table, then the running sums of the opacity change between `lut`'s
+/// entries (`preintegrate::opacity_change_sums`, in every channel; read by
+/// refined frames), then the transfer-function table `lut` as one more row, so that a
 /// pre-integrated frame reads a shorter segment's midpoint entry from the
 /// same texture as a full segment's, in one fetch chosen by select (a fetch
 /// of its own, in a branch, cost 12-18% of such a frame on lavapipe). Rows
@@ -360,6 +362,8 @@ fn with_lut_row(table: &[[f32; 4]], side: usize, lut: &[[f32; 4]]) -> (usize, Ve
         row.iter().copied().chain(std::iter::repeat(last)).take(width).collect::<Vec<_>>()
     };
     let mut texels: Vec<[f32; 4]> = table.chunks(side).flat_map(padded).collect();
+    let sums: Vec<[f32; 4]> = preintegrate::opacity_change_sums(lut).into_iter().map(|c| [c; 4]).collect();
+    texels.extend(padded(&sums));
     texels.extend(padded(lut));
     (width, texels)
 }
@@ -424,7 +428,7 @@ impl Tables {
         let (width, texels) = with_lut_row(&table, side, &self.rows);
         // f16 tops out at 65504: deeper segments are opaque anyway.
         let (format, bytes) = float_table(ctx, &texels, Some(6.0e4));
-        let size = wgpu::Extent3d { width: width as u32, height: side as u32 + 1, depth_or_array_layers: 1 };
+        let size = wgpu::Extent3d { width: width as u32, height: side as u32 + 2, depth_or_array_layers: 1 };
         let view = ctx.texture_with_data("uploading the pre-integration table", "preint", size, D2, format, 1, &bytes)?;
         self.preint = Some((view, key));
         Ok(bytes.len() as u64)

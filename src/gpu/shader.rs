@@ -7,6 +7,7 @@ use super::bindings;
 use crate::integrate::SHADOW_TAU_MAX;
 use crate::model::Model;
 use crate::occupancy::{BLOCK, UNIFORM_FLAG};
+use crate::preintegrate;
 use crate::scene::Shading;
 use std::fmt::Write;
 
@@ -49,6 +50,8 @@ pub fn prelude() -> String {
     let _ = writeln!(s, "const UNIFORM_FLAG: u32 = {UNIFORM_FLAG}u;");
     let _ = writeln!(s, "// A shadow ray stops once its optical depth passes this (light below e^-16).");
     let _ = writeln!(s, "const SHADOW_TAU_MAX: f32 = {SHADOW_TAU_MAX:.1};");
+    let _ = writeln!(s, "// Opacity change over a segment's reachable values that refines it (REFINE).");
+    let _ = writeln!(s, "const REFINE_EPS: f32 = {:?};", preintegrate::REFINE_OPACITY_CHANGE as f32);
     let _ = writeln!(s, "// Bisections that bracket an isosurface crossing.");
     let _ = writeln!(s, "const ISO_BISECTIONS: u32 = {ISO_BISECTIONS}u;");
     for (name, index) in bindings::ALL {

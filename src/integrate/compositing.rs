@@ -110,6 +110,27 @@ fn split(frame: &Frame, shading: Shading, ray: &Ray, lo: f64, len: f64, vf: f64,
     }
 }
 
+/// Whether a full pre-integrated segment of length `seg` from value `vf` to
+/// `vb` is refined (`RenderConfig::refine`). Along the ray, trilinear
+/// values change at most by the voxels' slopes times the voxels crossed per
+/// unit length, `l`; so the segment's values lie within (vf + vb -/+ l seg)
+/// / 2, and it is refined where the table's opacity changes, summed from
+/// entry to entry over that range (the entries around it included), by
+/// more than `REFINE_OPACITY_CHANGE`.
+fn reaches_unseen_opacity(frame: &Frame, ray: &Ray, seg: f64, vf: f64, vb: f64) -> bool {
+    let slopes = frame.slopes.unwrap_or_else(|| super::voxel_slopes(&frame.volume));
+    let ext = frame.volume.bounds.extent();
+    let crossed = [ray.dir.x / ext.x, ray.dir.y / ext.y, ray.dir.z / ext.z];
+    let l: f64 = (0..3).map(|a| slopes[a] * (crossed[a] * frame.volume.dims[a] as f64).abs()).sum::<f64>()
+        * frame.value_map.scale;
+    let (mid, reach) = (0.5 * (vf + vb), 0.5 * l * seg);
+    let m = frame.lut.len();
+    let entry = |v: f64| v.clamp(0.0, 1.0) * (m - 1) as f64;
+    let (i0, i1) = (entry(mid - reach).floor() as usize, entry(mid + reach).ceil() as usize);
+    let change: f64 = (i0..i1.min(m - 1)).map(|i| (frame.lut[i + 1][3] as f64 - frame.lut[i][3] as f64).abs()).sum();
+    change > preintegrate::REFINE_OPACITY_CHANGE
+}
+
 /// Segment `i` of an integrating model as pieces (one, unless adaptive):
 /// each piece's optical depth and the premultiplied colour it adds before
 /// attenuation by what lies in front. Empty pieces are left out.
@@ -126,6 +147,26 @@ fn segment(frame: &Frame, shading: Shading, ray: &Ray, i: u64, out: &mut Vec<(f6
             return;
         }
         // Eight times the table's resolution: the exact ramp integral.
+        if cfg.refine > 0 && reaches_unseen_opacity(frame, ray, seg, vf, vb) {
+            // One segment made of its pieces front to back along the ray,
+            // as the shader composites it (early termination comes after
+            // the whole segment).
+            let piece = seg / cfg.refine as f64;
+            let (mut x, mut c) = (0.0f64, [0.0f64; 3]);
+            for j in 0..cfg.refine {
+                if let Some((xj, add)) = midpoint_piece(frame, shading, ray, lo + j as f64 * piece, piece, None) {
+                    let keep = (-x).exp();
+                    for k in 0..3 {
+                        c[k] += keep * add[k];
+                    }
+                    x += xj;
+                }
+            }
+            if x > 0.0 {
+                out.push((x, c));
+            }
+            return;
+        }
         let k = preintegrate::substeps_for(frame.lut.len(), vf, vb) * 8;
         let r = preintegrate::segment(frame.lut, vf, vb, seg / cfg.reference_step_size, cfg.opacity_correction, k);
         if r[3] > 0.0 {

@@ -40,6 +40,43 @@ pub struct Frame<'a> {
     pub value_map: ValueMap,
     /// Rays march only inside this box (a crop of the volume's), if given.
     pub clip: Option<Bounds>,
+    /// The largest difference between neighbouring voxels along each numpy
+    /// axis ([`voxel_slopes`]), which refined pre-integrated segments need;
+    /// None: measured per frame (or per ray by `integrate_ray`) when needed.
+    pub slopes: Option<[f64; 3]>,
+}
+
+/// Along each numpy axis, the largest difference between the values of
+/// neighbouring voxels (pairs with NaN left out): trilinear interpolation
+/// changes by at most that per voxel moved along the axis.
+pub fn voxel_slopes(volume: &VolumeView) -> [f64; 3] {
+    let [n0, n1, n2] = volume.dims;
+    let v = |i: usize, j: usize, k: usize| volume.voxels.value((i * n1 + j) * n2 + k);
+    let mut out = [0.0f64; 3];
+    for i in 0..n0 {
+        for j in 0..n1 {
+            for k in 0..n2 {
+                let here = v(i, j, k);
+                let next = [(i + 1 < n0).then(|| v(i + 1, j, k)), (j + 1 < n1).then(|| v(i, j + 1, k)),
+                            (k + 1 < n2).then(|| v(i, j, k + 1))];
+                for (a, n) in next.into_iter().enumerate() {
+                    if let Some(d) = n.map(|n| (n - here).abs()).filter(|d| !d.is_nan()) {
+                        out[a] = out[a].max(d);
+                    }
+                }
+            }
+        }
+    }
+    out
+}
+
+/// The frame with its slopes measured, where refined segments need them.
+fn with_slopes<'a>(frame: &Frame<'a>) -> Frame<'a> {
+    let mut f = *frame;
+    if f.slopes.is_none() && f.config.pre_integrates() && f.config.refine > 0 {
+        f.slopes = Some(voxel_slopes(&f.volume));
+    }
+    f
 }
 
 /// One ray's result: premultiplied colour and opacity, how many steps the
@@ -148,14 +185,14 @@ fn trace(frame: &Frame, origin: DVec3, dir: DVec3, shift: f64) -> RayResult {
 
 /// One ray without jitter, in the config's model and order.
 pub fn integrate_ray(frame: &Frame, origin: DVec3, dir: DVec3) -> RayResult {
-    trace(frame, origin, dir, 0.0)
+    trace(&with_slopes(frame), origin, dir, 0.0)
 }
 
 /// The same ray composited from the far end: `C = c_i + exp(-x_i) C`.
 /// Equal to front-to-back when early termination does not stop the ray; a
 /// check on both, since the two orders share no accumulation code.
 pub fn integrate_ray_back_to_front(frame: &Frame, origin: DVec3, dir: DVec3) -> RayResult {
-    let mut f = *frame;
+    let mut f = with_slopes(frame);
     f.config.order = Order::BackToFront;
     trace(&f, origin, dir, 0.0)
 }
@@ -191,6 +228,8 @@ pub fn render_image_interruptible(frame: &Frame, stop: &mut dyn FnMut(usize) -> 
     use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
     use std::sync::Mutex;
     let basis = frame.camera.basis(frame.width, frame.height)?;
+    let measured = with_slopes(frame);
+    let frame = &measured;
     let (w, h) = (frame.width as usize, frame.height as usize);
     let pixels = w.checked_mul(h).ok_or_else(|| Error::InvalidInput(format!("image {w}x{h} is too large")))?;
     // Per-ray results, then the image and depth made from them: ask for all

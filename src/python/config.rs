@@ -11,7 +11,7 @@ use pyo3::types::PyType;
 use std::ffi::CString;
 
 /// Field names `replace()` accepts.
-const FIELDS: [&str; 15] = [
+const FIELDS: [&str; 16] = [
     "step_size",
     "max_steps",
     "early_ray_termination",
@@ -25,6 +25,7 @@ const FIELDS: [&str; 15] = [
     "jitter",
     "jitter_seed",
     "pre_integrated",
+    "refine",
     "unbiased",
     "order",
 ];
@@ -117,6 +118,9 @@ render_config_methods! {
         jitter / set_jitter: bool;
         /// Integrate each segment from a (front, back) table (emission_absorption only).
         pre_integrated / set_pre_integrated: bool;
+        /// With pre_integrated: midpoint samples (2-16) for a segment whose
+        /// values may reach an opacity change its ramp misses (0: off).
+        refine / set_refine: i64;
         /// Each frame an unbiased estimate of the exact integral (Poisson
         /// points, ratio tracking): ``render(accumulate=n)`` converges to it.
         unbiased / set_unbiased: bool;
@@ -132,7 +136,7 @@ render_config_methods! {
     }
 
     #[new]
-    #[pyo3(signature = (step_size=None, max_steps=None, early_ray_termination=None, opacity_threshold=None, reference_step_size=None, opacity_correction="exponential", *, model="emission_absorption", iso_value=None, anisotropy=None, shadow_step_size=None, jitter=None, jitter_seed=None, pre_integrated=None, unbiased=None, order="front_to_back"))]
+    #[pyo3(signature = (step_size=None, max_steps=None, early_ray_termination=None, opacity_threshold=None, reference_step_size=None, opacity_correction="exponential", *, model="emission_absorption", iso_value=None, anisotropy=None, shadow_step_size=None, jitter=None, jitter_seed=None, pre_integrated=None, refine=None, unbiased=None, order="front_to_back"))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -149,6 +153,7 @@ render_config_methods! {
         jitter: Option<&Bound<'_, PyAny>>,
         jitter_seed: Option<&Bound<'_, PyAny>>,
         pre_integrated: Option<&Bound<'_, PyAny>>,
+        refine: Option<&Bound<'_, PyAny>>,
         unbiased: Option<&Bound<'_, PyAny>>,
         order: &str,
     ) -> PyResult<Self> {
@@ -170,6 +175,7 @@ render_config_methods! {
             jitter: arg("jitter", jitter, d.jitter)?,
             jitter_seed: jitter_seed.map_or(Ok(d.jitter_seed), seed)?,
             pre_integrated: arg("pre_integrated", pre_integrated, d.pre_integrated)?,
+            refine: arg("refine", refine, d.refine)?,
             unbiased: arg("unbiased", unbiased, d.unbiased)?,
             order: Order::parse(order).map_err(to_py)?,
         };
@@ -274,6 +280,7 @@ render_config_methods! {
         state.set_item("jitter", c.jitter)?;
         state.set_item("jitter_seed", c.jitter_seed)?;
         state.set_item("pre_integrated", c.pre_integrated)?;
+        state.set_item("refine", c.refine)?;
         state.set_item("unbiased", c.unbiased)?;
         state.set_item("order", c.order.name())?;
         Ok((

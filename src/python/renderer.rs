@@ -497,7 +497,7 @@ pub fn integrate_reference<'py>(
     // KeyboardInterrupt may surface: it stops the frame and is raised.
     let mut raised_in_progress: Option<PyErr> = None;
     let result = with_volume(data, &normals, min_bounds, max_bounds, |volume| {
-        let frame = Frame { volume, lut: &rows, camera, light, config: cfg, width, height, adaptive_tolerance, value_map, clip };
+        let frame = Frame { volume, lut: &rows, camera, light, config: cfg, width, height, adaptive_tolerance, value_map, clip, slopes: None };
         run_released(py, |stop| {
             integrate::render_image_interruptible(&frame, &mut |rows| {
                 if let Some(report) = &progress {

@@ -349,7 +349,8 @@ impl GpuRenderer {
         let (variant, plan) = self.prepare(&frame.camera, &frame.light, &cfg)?;
         self.bind(variant.layout.hw_filter)?;
         let bind_group = self.bind_group.as_ref().expect("bound above").0.clone();
-        let params = frame.params.for_brick(bounds, grid, index);
+        let slopes = self.volume.as_ref().expect("swapped in").grid.slopes;
+        let params = frame.params.for_brick(bounds, grid, index).with_slopes(slopes, self.value_map.scale);
         let ends = Ends { first: frame.dispatched == 0, last: false };
         let core = self.volume.as_ref().expect("swapped in").bounds;
         let rect = screen_rect(&frame.camera.basis(self.width, self.height)?, &core, self.width, self.height);

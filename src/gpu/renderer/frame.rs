@@ -128,7 +128,7 @@ impl GpuRenderer {
             clip: self.clip,
             max_extinction: self.max_extinction(cfg),
         };
-        let mut params = Params::new(&inputs, &basis, light, cfg);
+        let mut params = Params::new(&inputs, &basis, light, cfg).with_slopes(vol.grid.slopes, self.value_map.scale);
         if let Some(cells) = self.occupancy.occupied {
             params = params.with_occupied(cells, vol.grid.dims);
         }
