@@ -9,10 +9,11 @@ each step in --steps. Both are rendered alternately (a warm-up each, then
 shared machine falls on both.
 
 Gain: for each scene and for max errors of --targets levels, the cheapest
-frame with and without pre-integration that stays within the target,
-over a sweep of steps without early termination (as in benches/accuracy.py),
-scored against the float64 integrator's converged image. The last column
-is how much less time pre-integration needs for the same error.
+frame of each kind (plain, pre-integrated, pre-integrated with refined
+segments) that stays within the target, over a sweep of steps without early
+termination (as in benches/accuracy.py), scored against the float64
+integrator's converged image. The last columns are how much less time each
+pre-integrated kind needs than plain frames for the same error.
 
 Output: tables on stdout, out/preintegration_cost.json and
 out/preintegration_gain.json (docs/speed.md).
@@ -43,6 +44,10 @@ STEPS = [0.005, 0.01, 0.02, 0.04, 0.08]
 # and for the helix (4 levels at 0.0003).
 GAIN_SWEEP = SWEEP + [0.00125, 0.000625, 0.0003125]
 TARGETS = [1.0, 4.0]
+# Samples a refined pre-integrated segment takes (RenderConfig.refine).
+REFINE = 8
+# The gain table's kinds: (pre_integrated, refine).
+KINDS = {"plain": (False, 0), "pre-integrated": (True, 0), "refined": (True, REFINE)}
 
 
 def renderer_for(scene):
@@ -96,28 +101,29 @@ def gain(scene, targets, frames, sweep):
     print(f"  {scene[0]}: converged at step {info['step']:.4g} in {time.perf_counter() - t:.0f} s "
           f"(estimated error {info['estimated_max_error']:.2f} levels)", flush=True)
     # From the largest step down, each kind until it meets the smallest target.
-    points = {False: [], True: []}
+    points = {kind: [] for kind in KINDS}
     for h in sorted(sweep, reverse=True):
         cfg = RenderConfig(step_size=h, max_steps=int(3.5 / h) + 2, early_ray_termination=False)
-        for pre in (False, True):
-            if any(p[2] <= min(targets) for p in points[pre]):
+        for kind, (pre, refine) in KINDS.items():
+            if any(p[2] <= min(targets) for p in points[kind]):
                 continue
-            c = cfg.replace(pre_integrated=pre)
+            c = cfg.replace(pre_integrated=pre, refine=refine)
             img, _, _ = frame(r, c)
             (ms,), _ = alternate(r, [c], frames)
-            points[pre].append((h, ms, accuracy.error_metrics(img, conv)["max"]))
+            points[kind].append((h, ms, accuracy.error_metrics(img, conv)["max"]))
     rows = []
     for target in targets:
         best = {}
-        for pre in (False, True):
-            ok = [p for p in points[pre] if p[2] <= target]
-            best[pre] = min(ok, key=lambda p: p[1]) if ok else None
-        cell = {pre: (f"step {b[0]:g}: {b[1]:.1f} ms, max {b[2]:.2f}" if b else "not reached (smallest step)")
-                for pre, b in best.items()}
-        ratio = f"{best[False][1] / best[True][1]:.1f}x" if best[False] and best[True] else ""
-        rows.append([scene[0], f"{target:g}", cell[False], cell[True], ratio])
-        print(f"  {scene[0]:<22} <= {target:g} levels: plain {cell[False]}; pre-integrated {cell[True]}; {ratio}",
-              flush=True)
+        for kind in KINDS:
+            ok = [p for p in points[kind] if p[2] <= target]
+            best[kind] = min(ok, key=lambda p: p[1]) if ok else None
+        cell = {kind: (f"step {b[0]:g}: {b[1]:.1f} ms, max {b[2]:.2f}" if b else "not reached (smallest step)")
+                for kind, b in best.items()}
+        ratios = [f"{best['plain'][1] / best[k][1]:.1f}x" if best["plain"] and best[k] else ""
+                  for k in ("pre-integrated", "refined")]
+        rows.append([scene[0], f"{target:g}", *cell.values(), *ratios])
+        print(f"  {scene[0]:<22} <= {target:g} levels: " + "; ".join(f"{k} {c}" for k, c in cell.items())
+              + f"; {' / '.join(ratios)}", flush=True)
     return rows
 
 
@@ -148,12 +154,15 @@ def main():
     if gain_rows:
         write_table("preintegration_gain", command,
                     ["scene", "max error (levels)", "plain: cheapest frame within it",
-                     "pre-integrated: cheapest frame within it", "plain / pre-integrated time"],
+                     "pre-integrated: cheapest frame within it",
+                     f"pre-integrated, refine={REFINE}: cheapest frame within it",
+                     "plain / pre-integrated time", "plain / refined time"],
                     gain_rows, device=device,
                     note="Steps " + ", ".join(f"{h:g}" for h in sorted(GAIN_SWEEP, reverse=True)) + " (each kind "
                     "down to the first that meets the smaller target) without early termination, each scored "
                     "against the float64 integrator's converged image (max of premultiplied RGBA in 8-bit levels); "
-                    "times are medians of warm frames.")
+                    f"times are medians of warm frames. Refined: pre-integrated with refine={REFINE} (segments whose "
+                    "values may reach an opacity change their ramp misses are taken as that many midpoint samples).")
     print(f"total {time.perf_counter() - t0:.0f} s")
 
 
