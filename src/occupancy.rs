@@ -196,7 +196,7 @@ impl MinMaxGrid {
                     Some((min, max)) => (min.clone(), max.clone(), cells),
                     None => (self.min.clone(), self.max.clone(), cells.map(|r| r + 1)),
                 };
-                let wide = MinMaxGrid { dims: self.dims, min, max, wide: Vec::new(), has_nan: self.has_nan, slopes: self.slopes };
+                let wide = MinMaxGrid { min, max, wide: Vec::new(), ..*self };
                 Cow::Owned(wide.widened(cells))
             }
         }

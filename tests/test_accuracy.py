@@ -111,7 +111,9 @@ def test_config_for_error_meets_its_target_from_a_small_pilot(name):
     conv, _ = accuracy.converged_image(r, tolerance=0.05)
     cfg, pred = accuracy.config_for_error(r, 2.0)
     assert pred["pilot_size"] == (64, 64)
-    assert pred["pilot_renders"] <= 16, pred
+    # (Where the TF limits the step, the pre-integrated and refined searches
+    # add up to 4-6 each: 17 on the narrow peaks.)
+    assert pred["pilot_renders"] <= 20, pred
     assert cfg.jitter is False
     r.set_config(cfg)
     got = accuracy.error_metrics(r.render(dtype=np.float32, premultiplied=True), conv)
@@ -138,8 +140,14 @@ def test_config_for_error_pre_integrates_where_it_pays(name):
     vol, otf = SCENES[name]()
     r = make(vol, otf)
     cfg, pred = accuracy.config_for_error(r, 4.0)
-    assert cfg.pre_integrated == (pred["pre_integrated_step"] > accuracy.PREINTEGRATED_COST * pred["midpoint_step"])
-    assert cfg.step_size == (pred["pre_integrated_step"] if cfg.pre_integrated else pred["midpoint_step"])
+    # (Refined segments, where their pilot takes fewer samples, take a step
+    # of their own.)
+    assert cfg.pre_integrated == (pred["pre_integrated_step"] > accuracy.PREINTEGRATED_COST * pred["midpoint_step"]
+                                  or cfg.refine > 0)
+    chosen = pred["refined_step"] if cfg.refine else pred["pre_integrated_step"] if cfg.pre_integrated else \
+        pred["midpoint_step"]
+    assert cfg.step_size == chosen
+    assert cfg.refine in (0, accuracy.REFINE)
     assert cfg.pre_integrated == (name == "narrow_peaks"), (name, pred["midpoint_step"], pred["pre_integrated_step"])
 
 
@@ -158,3 +166,27 @@ def test_config_for_error_tries_pre_integration_only_where_the_tf_limits_the_ste
     assert limited == (name == "narrow_peaks"), (name, pred["tf_limited_step"], pred["spacing"])
     assert any(c.pre_integrated for c in rendered) == limited
     assert len(rendered) == pred["pilot_renders"]
+
+
+def test_config_for_error_refines_where_the_frame_takes_fewer_samples():
+    # On the small narrow peaks refined segments keep 4 levels at a step 3x
+    # the pre-integrated one and the frame takes fewer samples (measured
+    # 25.5k against 36.3k): the choice, made from pilots with the chosen
+    # early termination, agrees with the frames, which meet the target.
+    vol, otf = SCENES["narrow_peaks"]()
+    r = make(vol, otf)
+    conv, _ = accuracy.converged_image(r, tolerance=0.05)
+    cfg, pred = accuracy.config_for_error(r, 4.0)
+    assert cfg.pre_integrated and pred["refined_step"] > 2 * pred["pre_integrated_step"], pred
+
+    def frame(refine, h):
+        steps = int(np.ceil(accuracy.longest_chord(r) / h)) + 2
+        r.set_config(cfg.replace(refine=refine, step_size=h, max_steps=steps))
+        img = r.render(dtype=np.float32, premultiplied=True)
+        return accuracy.error_metrics(img, conv)["max"], r.last_frame_stats["samples"]
+
+    e_refined, refined = frame(accuracy.REFINE, pred["refined_step"])
+    e_pre, pre = frame(0, pred["pre_integrated_step"])
+    assert (accuracy.REFINED_COST * refined < accuracy.PREINTEGRATED_COST * pre) == (cfg.refine > 0)
+    assert cfg.refine == accuracy.REFINE, (refined, pre)
+    assert e_refined <= 4.0 and e_pre <= 4.0, (e_refined, e_pre)

@@ -29,6 +29,12 @@ LEVELS = 255.0
 # (1.0-1.4x on the accuracy benchmark's scenes, at most 1.25x at steps up to
 # 0.01: benches/preintegration.py).
 PREINTEGRATED_COST = 1.3
+# Midpoint samples of a refined pre-integrated segment (RenderConfig.refine)
+# where config_for_error tries them, and such a frame's time per sample over
+# a midpoint frame's (1.3-1.4x on the accuracy benchmark's helix, where few
+# segments are refined: benches/preintegration.py).
+REFINE = 8
+REFINED_COST = 1.5
 
 
 def error_metrics(image: np.ndarray, reference: np.ndarray) -> Dict[str, float]:
@@ -227,7 +233,16 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[in
     for nothing. They are tried once at 1.5 times the midpoint step (above
     their cost per sample, PREINTEGRATED_COST) and searched further only if
     that passes. Each step they try builds a table (a few ms for 256
-    entries), so the search takes few.
+    entries), so the search takes few. Refined pre-integrated segments
+    (``refine=REFINE``: where a segment's values may reach an opacity change
+    its ramp misses, as at a step transfer function's threshold) are then
+    tried from the step at which their frame (REFINED_COST times a midpoint
+    frame's at the same step, where few segments are refined) would cost
+    what the choice so far does, and taken where, at the largest step they
+    keep within the budget, a pilot with the chosen early termination takes
+    fewer samples than one of the choice so far (weighted by REFINED_COST,
+    and the choice so far by PREINTEGRATED_COST where pre-integrated): how
+    many segments are refined depends on the scene.
 
     Early termination: rays stop at opacity 1 - 0.2 * target / 255, which
     bounds what it drops to 0.2 of the target. Jitter stays off: it turns
@@ -257,35 +272,49 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[in
     budget = (0.75 if scale == 1.0 else 0.4) * max_error_levels
     size = (max(1, round(w0 * scale)), max(1, round(h0 * scale)))
     longest = feats["longest_chord"]
-    images: Dict[Tuple[float, bool], np.ndarray] = {}
+    images: Dict[Tuple[float, bool, int], np.ndarray] = {}
 
-    def pilot_image(h, pre=False):
-        if (h, pre) not in images:
+    def pilot_image(h, pre=False, refine=0):
+        if (h, pre, refine) not in images:
             # Early termination on at threshold 1 stops only rays whose
             # transmittance rounds to 0 in f32 (below 3e-8: under 1e-5
             # level behind them), so the pilots measure the step alone while
             # running the shader variant the chosen config runs: its first
             # frame then compiles nothing.
-            pilot_cfg = _exact(cfg, h, longest).replace(pre_integrated=pre, early_ray_termination=True)
-            images[h, pre] = renderer.render(dtype=np.float32, premultiplied=True, size=size, config=pilot_cfg)
-        return images[h, pre]
+            pilot_cfg = _exact(cfg, h, longest).replace(pre_integrated=pre, refine=refine, early_ray_termination=True)
+            images[h, pre, refine] = renderer.render(dtype=np.float32, premultiplied=True, size=size, config=pilot_cfg)
+        return images[h, pre, refine]
 
-    def error(h, pre):
-        return float(np.abs(pilot_image(h, pre) - pilot_image(h_fine)).max() * LEVELS)
+    threshold = 1.0 - 0.2 * max_error_levels / LEVELS
+    renders = [0]
 
-    def largest_step(start, pre=False, refine=(2**0.5, 2**0.25), leap=1, final=True):
-        h, err = start, error(start, pre)
+    def samples_taken(h, pre, refine):
+        # The samples a pilot takes with the chosen config's early
+        # termination (the search's pilots march on until transmittance
+        # underflows, which inflates kinds unequally).
+        pilot_cfg = _exact(cfg, h, longest).replace(pre_integrated=pre, refine=refine,
+                                                    early_ray_termination=threshold < 1.0,
+                                                    opacity_threshold=max(0.0, threshold))
+        renderer.render(dtype=np.float32, premultiplied=True, size=size, config=pilot_cfg)
+        renders[0] += 1
+        return renderer.last_frame_stats["samples"]
+
+    def error(h, pre, k=0):
+        return float(np.abs(pilot_image(h, pre, k) - pilot_image(h_fine)).max() * LEVELS)
+
+    def largest_step(start, pre=False, between=(2**0.5, 2**0.25), leap=1, final=True, k=0):
+        h, err = start, error(start, pre, k)
         cand, fails = start, 0
         # A step `leap` times the start first: where it passes, the steps
         # between would not change the outcome (a pass resets the failures),
         # and they are the costliest pilots after the reference.
         if leap > 1 and start * leap <= longest:
-            e = error(start * leap, pre)
+            e = error(start * leap, pre, k)
             if e <= budget:
                 h, err, cand = start * leap, e, start * leap
         while cand * 2 <= longest and fails < 2:
             cand *= 2
-            e = error(cand, pre)
+            e = error(cand, pre, k)
             if e > budget:
                 fails += 1
             else:
@@ -294,8 +323,8 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[in
         # (not when none above the start passed and a finer start follows).
         if h == start and not final:
             return h, err
-        for f in refine:
-            e = error(h * f, pre) if h * f <= longest else np.inf
+        for f in between:
+            e = error(h * f, pre, k) if h * f <= longest else np.inf
             if e <= budget:
                 h, err = h * f, e
         return h, err
@@ -306,21 +335,33 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[in
         if h > h_fine or attempt == 3:
             break
         h_fine /= 2
-    pre, h_mid = False, h
-    h_pre, err_pre = 0.0, 0.0
+    pre, k, h_mid = False, 0, h
+    h_pre, err_pre, h_ref = 0.0, 0.0, 0.0
     tf_limited = tf_limited_step(feats) < 0.5 * feats["spacing"]
     if cfg.model == "emission_absorption" and tf_limited and 1.5 * h <= longest:
         first = 1.5 * h
         if error(first, True) <= budget:
-            h_pre, err_pre = largest_step(first, True, refine=(2**0.5,))
+            h_pre, err_pre = largest_step(first, True, between=(2**0.5,))
             if h_pre > PREINTEGRATED_COST * h:
                 pre, h, err = True, h_pre, err_pre
-    threshold = 1.0 - 0.2 * max_error_levels / LEVELS
+        # Refined segments, where they are cheaper than both: searched from
+        # a step whose frame would cost what the choice so far does if few
+        # segments were refined, and taken where the pilot at the largest
+        # step they keep within the budget takes fewer samples (how many
+        # segments are refined depends on the scene).
+        first = REFINED_COST * h / (PREINTEGRATED_COST if pre else 1.0)
+        if first <= longest and error(first, True, REFINE) <= budget:
+            h_ref, err_ref = largest_step(first, True, between=(2**0.5,), leap=2, k=REFINE)
+            so_far = samples_taken(h, pre, 0) * (PREINTEGRATED_COST if pre else 1.0)
+            if REFINED_COST * samples_taken(h_ref, True, REFINE) < so_far:
+                pre, k, h, err = True, REFINE, h_ref, err_ref
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)
-        out = cfg.replace(step_size=h, max_steps=int(np.ceil(longest / h)) + 2, pre_integrated=pre, jitter=False,
-                          early_ray_termination=threshold < 1.0, opacity_threshold=max(0.0, threshold))
+        out = cfg.replace(step_size=h, max_steps=int(np.ceil(longest / h)) + 2, pre_integrated=pre, refine=k,
+                          jitter=False, early_ray_termination=threshold < 1.0, opacity_threshold=max(0.0, threshold))
     return out, {"step": h, "pilot_step_error": err, "pilot_fine_step": h_fine, "threshold": threshold,
                  "tf_limited_step": tf_limited_step(feats),
-                 "pre_integrated": pre, "midpoint_step": h_mid, "pre_integrated_step": h_pre,
-                 "pilot_renders": len(images), "pilot_size": size, "seconds": time.perf_counter() - started, **feats}
+                 "pre_integrated": pre, "refine": k, "midpoint_step": h_mid, "pre_integrated_step": h_pre,
+                 "refined_step": h_ref,
+                 "pilot_renders": len(images) + renders[0], "pilot_size": size,
+                 "seconds": time.perf_counter() - started, **feats}
