@@ -238,7 +238,8 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[in
     its ramp misses, as at a step transfer function's threshold) are then
     tried from the step at which their frame (REFINED_COST times a midpoint
     frame's at the same step, where few segments are refined) would cost
-    what the choice so far does, and taken where, at the largest step they
+    what the choice so far does, unless a pilot there takes twice the
+    samples of the choice so far, and taken where, at the largest step they
     keep within the budget, a pilot with the chosen early termination takes
     fewer samples than one of the choice so far (weighted by REFINED_COST,
     and the choice so far by PREINTEGRATED_COST where pre-integrated): how
@@ -349,10 +350,14 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[in
         # segments were refined, and taken where the pilot at the largest
         # step they keep within the budget takes fewer samples (how many
         # segments are refined depends on the scene).
+        # Where a pilot there already takes twice the samples of the choice
+        # so far, refinement fires on most segments (reach grows with the
+        # step): no search.
         first = REFINED_COST * h / (PREINTEGRATED_COST if pre else 1.0)
-        if first <= longest and error(first, True, REFINE) <= budget:
+        so_far = samples_taken(h, pre, 0) * (PREINTEGRATED_COST if pre else 1.0) if first <= longest else 0
+        if (first <= longest and REFINED_COST * samples_taken(first, True, REFINE) < 2 * so_far
+                and error(first, True, REFINE) <= budget):
             h_ref, err_ref = largest_step(first, True, between=(2**0.5,), leap=2, k=REFINE)
-            so_far = samples_taken(h, pre, 0) * (PREINTEGRATED_COST if pre else 1.0)
             if REFINED_COST * samples_taken(h_ref, True, REFINE) < so_far:
                 pre, k, h, err = True, REFINE, h_ref, err_ref
     with warnings.catch_warnings():
