@@ -287,18 +287,19 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[in
         return images[h, pre, refine]
 
     threshold = 1.0 - 0.2 * max_error_levels / LEVELS
-    renders = [0]
+    samples: Dict[Tuple[float, bool, int], int] = {}
 
     def samples_taken(h, pre, refine):
         # The samples a pilot takes with the chosen config's early
         # termination (the search's pilots march on until transmittance
         # underflows, which inflates kinds unequally).
-        pilot_cfg = _exact(cfg, h, longest).replace(pre_integrated=pre, refine=refine,
-                                                    early_ray_termination=threshold < 1.0,
-                                                    opacity_threshold=max(0.0, threshold))
-        renderer.render(dtype=np.float32, premultiplied=True, size=size, config=pilot_cfg)
-        renders[0] += 1
-        return renderer.last_frame_stats["samples"]
+        if (h, pre, refine) not in samples:
+            pilot_cfg = _exact(cfg, h, longest).replace(pre_integrated=pre, refine=refine,
+                                                        early_ray_termination=threshold < 1.0,
+                                                        opacity_threshold=max(0.0, threshold))
+            renderer.render(dtype=np.float32, premultiplied=True, size=size, config=pilot_cfg)
+            samples[h, pre, refine] = renderer.last_frame_stats["samples"]
+        return samples[h, pre, refine]
 
     def error(h, pre, k=0):
         return float(np.abs(pilot_image(h, pre, k) - pilot_image(h_fine)).max() * LEVELS)
@@ -347,19 +348,18 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[in
                 pre, h, err = True, h_pre, err_pre
         # Refined segments, where they are cheaper than both: searched from
         # a step whose frame would cost what the choice so far does if few
-        # segments were refined, and taken where the pilot at the largest
-        # step they keep within the budget takes fewer samples (how many
-        # segments are refined depends on the scene).
-        # Where a pilot there already takes twice the samples of the choice
-        # so far, refinement fires on most segments (reach grows with the
-        # step): no search.
-        first = REFINED_COST * h / (PREINTEGRATED_COST if pre else 1.0)
-        so_far = samples_taken(h, pre, 0) * (PREINTEGRATED_COST if pre else 1.0) if first <= longest else 0
-        if (first <= longest and REFINED_COST * samples_taken(first, True, REFINE) < 2 * so_far
-                and error(first, True, REFINE) <= budget):
-            h_ref, err_ref = largest_step(first, True, between=(2**0.5,), leap=2, k=REFINE)
-            if REFINED_COST * samples_taken(h_ref, True, REFINE) < so_far:
-                pre, k, h, err = True, REFINE, h_ref, err_ref
+        # segments were refined (not where a pilot there already takes
+        # twice the samples: refinement then fires on most segments, and
+        # its reach grows with the step), and taken where the pilot at the
+        # largest step they keep within the budget takes fewer samples.
+        weight = PREINTEGRATED_COST if pre else 1.0
+        first = REFINED_COST * h / weight
+        if first <= longest:
+            so_far = weight * samples_taken(h, pre, 0)
+            if REFINED_COST * samples_taken(first, True, REFINE) < 2 * so_far and error(first, True, REFINE) <= budget:
+                h_ref, err_ref = largest_step(first, True, between=(2**0.5,), leap=2, k=REFINE)
+                if REFINED_COST * samples_taken(h_ref, True, REFINE) < so_far:
+                    pre, k, h, err = True, REFINE, h_ref, err_ref
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)
         out = cfg.replace(step_size=h, max_steps=int(np.ceil(longest / h)) + 2, pre_integrated=pre, refine=k,
@@ -368,5 +368,5 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[in
                  "tf_limited_step": tf_limited_step(feats),
                  "pre_integrated": pre, "refine": k, "midpoint_step": h_mid, "pre_integrated_step": h_pre,
                  "refined_step": h_ref,
-                 "pilot_renders": len(images) + renders[0], "pilot_size": size,
+                 "pilot_renders": len(images) + len(samples), "pilot_size": size,
                  "seconds": time.perf_counter() - started, **feats}

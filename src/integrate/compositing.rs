@@ -118,7 +118,10 @@ fn split(frame: &Frame, shading: Shading, ray: &Ray, lo: f64, len: f64, vf: f64,
 /// entry to entry over that range (the entries around it included), by
 /// more than `REFINE_OPACITY_CHANGE`.
 fn reaches_unseen_opacity(frame: &Frame, ray: &Ray, seg: f64, vf: f64, vb: f64) -> bool {
-    let slopes = frame.slopes.unwrap_or_else(|| super::voxel_slopes(&frame.volume));
+    // Measured once per frame before any ray (`with_slopes`); unmeasured,
+    // the bound is no bound, and every segment near an opacity change is
+    // refined (never a pass over the volume per segment).
+    let slopes = frame.slopes.unwrap_or([f64::MAX; 3]);
     let ext = frame.volume.bounds.extent();
     let crossed = [ray.dir.x / ext.x, ray.dir.y / ext.y, ray.dir.z / ext.z];
     let l: f64 = (0..3).map(|a| slopes[a] * (crossed[a] * frame.volume.dims[a] as f64).abs()).sum::<f64>()
@@ -146,7 +149,6 @@ fn segment(frame: &Frame, shading: Shading, ray: &Ray, i: u64, out: &mut Vec<(f6
         if vf.is_nan() || vb.is_nan() {
             return;
         }
-        // Eight times the table's resolution: the exact ramp integral.
         if cfg.refine > 0 && reaches_unseen_opacity(frame, ray, seg, vf, vb) {
             // One segment made of its pieces front to back along the ray,
             // as the shader composites it (early termination comes after
@@ -167,6 +169,7 @@ fn segment(frame: &Frame, shading: Shading, ray: &Ray, i: u64, out: &mut Vec<(f6
             }
             return;
         }
+        // Eight times the table's resolution: the exact ramp integral.
         let k = preintegrate::substeps_for(frame.lut.len(), vf, vb) * 8;
         let r = preintegrate::segment(frame.lut, vf, vb, seg / cfg.reference_step_size, cfg.opacity_correction, k);
         if r[3] > 0.0 {
