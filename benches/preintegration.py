@@ -44,8 +44,9 @@ STEPS = [0.005, 0.01, 0.02, 0.04, 0.08]
 # and for the helix (4 levels at 0.0003).
 GAIN_SWEEP = SWEEP + [0.00125, 0.000625, 0.0003125]
 TARGETS = [1.0, 4.0]
-# Samples a refined pre-integrated segment takes (RenderConfig.refine).
-REFINE = 8
+# Samples a refined pre-integrated segment takes (RenderConfig.refine): the
+# number config_for_error tries.
+REFINE = accuracy.REFINE
 # The gain table's kinds: (pre_integrated, refine).
 KINDS = {"plain": (False, 0), "pre-integrated": (True, 0), "refined": (True, REFINE)}
 
