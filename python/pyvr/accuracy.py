@@ -30,11 +30,26 @@ LEVELS = 255.0
 # 0.01: benches/preintegration.py).
 PREINTEGRATED_COST = 1.3
 # Midpoint samples of a refined pre-integrated segment (RenderConfig.refine)
-# where config_for_error tries them, and such a frame's time per sample over
-# a midpoint frame's (1.3-1.4x on the accuracy benchmark's helix, where few
-# segments are refined: benches/preintegration.py).
+# where config_for_error tries them, and the time of each such sample over a
+# midpoint frame's sample. Measured on lavapipe: 1.6-1.7x on the narrow
+# peaks (a third to a half of the samples refined), 0.9x on Shepp-Logan
+# (nearly all); 5-11x on the helix, where one lane in a group refines and
+# the others wait, but there they are 2-4% of a frame's samples.
 REFINE = 8
-REFINED_COST = 1.5
+REFINED_COST = 2.2
+# Where config_for_error starts searching refined segments: this many times
+# the step of the choice so far, over its weight: a refined frame with few
+# segments refined costs 1.3x a midpoint frame per segment (the helix), so a
+# shorter step would not pay for the pilots.
+REFINED_START = 1.5
+
+
+def refined_cost(samples: float, segments: float) -> float:
+    """A refined pre-integrated frame's cost in midpoint samples: its
+    `segments` (the samples the same frame takes unrefined) at
+    PREINTEGRATED_COST and the rest of its `samples`, the refined segments'
+    sub-samples, at REFINED_COST."""
+    return PREINTEGRATED_COST * segments + REFINED_COST * max(samples - segments, 0.0)
 
 
 def error_metrics(image: np.ndarray, reference: np.ndarray) -> Dict[str, float]:
@@ -232,18 +247,21 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[in
     only resolves the transfer function, would cost a pipeline and a table
     for nothing. They are tried once at 1.5 times the midpoint step (above
     their cost per sample, PREINTEGRATED_COST) and searched further only if
-    that passes. Each step they try builds a table (a few ms for 256
-    entries), so the search takes few. Refined pre-integrated segments
-    (``refine=REFINE``: where a segment's values may reach an opacity change
-    its ramp misses, as at a step transfer function's threshold) are then
-    tried from the step at which their frame (REFINED_COST times a midpoint
-    frame's at the same step, where few segments are refined) would cost
-    what the choice so far does, unless a pilot there takes twice the
-    samples of the choice so far, and taken where, at the largest step they
-    keep within the budget, a pilot with the chosen early termination takes
-    fewer samples than one of the choice so far (weighted by REFINED_COST,
-    and the choice so far by PREINTEGRATED_COST where pre-integrated): how
-    many segments are refined depends on the scene.
+    that passes. Refined pre-integrated segments (``refine=REFINE``: where
+    a segment's values may reach an opacity change its ramp misses, as at a
+    step transfer function's threshold) are then tried from REFINED_START
+    times the step of the choice so far over its weight, unless a pilot
+    there costs twice the choice so far, and taken where, at the largest step they keep within the budget,
+    their pilot costs less than the choice so far's. Costs are sample counts
+    of pilots with the chosen early termination, weighted per sample
+    (:func:`refined_cost`): how many segments are refined depends on the
+    scene, and their samples cost more than a segment's. Sample counts
+    compare configs on the same rays, so they are taken on a pilot of a
+    quarter of the pilot's side.
+
+    Above one level the fine pilot is coarser by the target's fourth root:
+    its own error, falling as h to h^2, is then a smaller share of the
+    budget than at one level.
 
     Early termination: rays stop at opacity 1 - 0.2 * target / 255, which
     bounds what it drops to 0.2 of the target. Jitter stays off: it turns
@@ -272,6 +290,9 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[in
     # anisotropic scene: 1.5-12.7x) are not bounded by it.
     budget = (0.75 if scale == 1.0 else 0.4) * max_error_levels
     size = (max(1, round(w0 * scale)), max(1, round(h0 * scale)))
+    # Sample counts compare configs on the same rays, so a quarter of the
+    # pilot's side (a sixteenth of its rays) counts them as well.
+    count_size = tuple(min(s, max(16, -(-s // 4))) for s in size)
     longest = feats["longest_chord"]
     images: Dict[Tuple[float, bool, int], np.ndarray] = {}
 
@@ -297,7 +318,7 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[in
             pilot_cfg = _exact(cfg, h, longest).replace(pre_integrated=pre, refine=refine,
                                                         early_ray_termination=threshold < 1.0,
                                                         opacity_threshold=max(0.0, threshold))
-            renderer.render(dtype=np.float32, premultiplied=True, size=size, config=pilot_cfg)
+            renderer.render(dtype=np.float32, premultiplied=True, size=count_size, config=pilot_cfg)
             samples[h, pre, refine] = renderer.last_frame_stats["samples"]
         return samples[h, pre, refine]
 
@@ -332,6 +353,7 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[in
         return h, err
 
     h_fine = max(initial_step(feats, cfg.reference_step_size) / 4, feats["spacing"] / 16)
+    h_fine *= max(1.0, max_error_levels) ** 0.25
     for attempt in range(4):
         h, err = largest_step(h_fine, leap=4, final=attempt == 3)
         if h > h_fine or attempt == 3:
@@ -343,7 +365,7 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[in
     if cfg.model == "emission_absorption" and tf_limited and 1.5 * h <= longest:
         first = 1.5 * h
         if error(first, True) <= budget:
-            h_pre, err_pre = largest_step(first, True, between=(2**0.5,))
+            h_pre, err_pre = largest_step(first, True)
             if h_pre > PREINTEGRATED_COST * h:
                 pre, h, err = True, h_pre, err_pre
         # Refined segments, where they are cheaper than both: searched from
@@ -353,12 +375,16 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[in
         # its reach grows with the step), and taken where the pilot at the
         # largest step they keep within the budget takes fewer samples.
         weight = PREINTEGRATED_COST if pre else 1.0
-        first = REFINED_COST * h / weight
+        first = REFINED_START * h / weight
+
+        def cost(h_k):
+            return refined_cost(samples_taken(h_k, True, REFINE), samples_taken(h_k, True, 0))
+
         if first <= longest:
             so_far = weight * samples_taken(h, pre, 0)
-            if REFINED_COST * samples_taken(first, True, REFINE) < 2 * so_far and error(first, True, REFINE) <= budget:
+            if cost(first) < 2 * so_far and error(first, True, REFINE) <= budget:
                 h_ref, err_ref = largest_step(first, True, between=(2**0.5,), leap=2, k=REFINE)
-                if REFINED_COST * samples_taken(h_ref, True, REFINE) < so_far:
+                if cost(h_ref) < so_far:
                     pre, k, h, err = True, REFINE, h_ref, err_ref
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)
