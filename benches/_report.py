@@ -12,6 +12,20 @@ import subprocess
 OUT = os.environ.get("PYVR_OUT", os.path.join(os.path.dirname(__file__), "..", "out"))
 
 
+def cpu_model() -> str:
+    """The processor's model name: the same benchmark on two CPUs of one
+    architecture can differ by 1.4x (lavapipe's frames) in opposite
+    directions for different engines."""
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown CPU"
+
+
 def stamp(device: str = "") -> dict:
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
                             cwd=os.path.dirname(os.path.abspath(__file__))).stdout.strip()
@@ -19,7 +33,7 @@ def stamp(device: str = "") -> dict:
                            cwd=os.path.dirname(os.path.abspath(__file__))).stdout.strip()
     return {
         "date": datetime.date.today().isoformat(),
-        "machine": f"{platform.node()} ({os.cpu_count()} cores, {platform.machine()})",
+        "machine": f"{platform.node()} ({os.cpu_count()} cores, {platform.machine()}, {cpu_model()})",
         "device": device,
         "commit": commit + ("+changes" if dirty else ""),
     }
