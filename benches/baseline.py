@@ -10,8 +10,8 @@ it, from an earlier VM, was 1293 ms. So the baseline is rebuilt here.
 The earlier commit is checked out into a git worktree under the temporary
 folder, built with maturin into its own virtual environment (the Rust
 dependencies come from this checkout's target folder, so only pyvr itself
-compiles: a few minutes on 2 cores), and both builds run this checkout's
-examples/benchmark.py, whose API the earlier commit shares. Each round runs
+compiles: a few minutes on 2 cores), and each build runs its own
+examples/benchmark.py (the same scene and timing). Each round runs
 every preset in a fresh process per build, alternating which goes first;
 the table gives each build's median over the rounds' medians and their
 ratio.
@@ -40,8 +40,9 @@ PRESETS = ["preview", "fast", "balanced", "high_quality", "ultra_quality"]
 ROW = re.compile(r"^(\w+)\s+[\d.]+\s+\d+\s+\d+\s+\d+\s+([\d.]+)\s")
 
 
-def build(rev: str) -> str:
-    """A virtual environment with pyvr built at `rev`; its python."""
+def build(rev: str) -> tuple:
+    """A virtual environment with pyvr built at `rev`: its python, and the
+    worktree holding `rev`'s examples."""
     short = subprocess.run(["git", "rev-parse", "--short", rev], cwd=ROOT, capture_output=True, text=True,
                            check=True).stdout.strip()
     tree = os.path.join(tempfile.gettempdir(), f"pyvr-baseline-{short}")
@@ -57,14 +58,16 @@ def build(rev: str) -> str:
     print(f"building {short} in {tree} ...", flush=True)
     subprocess.run([os.path.join(venv, "bin", "maturin"), "develop", "--release", "-q"], cwd=tree, env=env,
                    check=True, stdout=subprocess.DEVNULL)
-    return python
+    return python, tree
 
 
-def medians(python: str, frames: int) -> dict:
-    """Median ms per preset from one run of examples/benchmark.py."""
+def medians(python: str, tree: str, frames: int) -> dict:
+    """Median ms per preset from one run of `tree`'s examples/benchmark.py."""
     env = dict(os.environ, PYVR_OUT=tempfile.mkdtemp())
-    out = subprocess.run([python, os.path.join(ROOT, "examples", "benchmark.py"), "--frames", str(frames)],
-                         cwd=os.path.join(ROOT, "examples"), env=env, capture_output=True, text=True, check=True)
+    out = subprocess.run([python, os.path.join(tree, "examples", "benchmark.py"), "--frames", str(frames)],
+                         cwd=os.path.join(tree, "examples"), env=env, capture_output=True, text=True)
+    if out.returncode != 0:
+        raise RuntimeError(f"{tree}/examples/benchmark.py failed:\n{out.stdout}\n{out.stderr}")
     got = {m.group(1): float(m.group(2)) for m in map(ROW.match, out.stdout.splitlines()) if m}
     missing = [p for p in PRESETS if p not in got]
     if missing:
@@ -78,11 +81,11 @@ def main():
     ap.add_argument("--rounds", type=int, default=3, help="alternating rounds (default 3)")
     ap.add_argument("--frames", type=int, default=5, help="timed frames per preset and run (default 5)")
     args = ap.parse_args()
-    builds = {"earlier": build(args.rev), "this": sys.executable}
+    builds = {"earlier": build(args.rev), "this": (sys.executable, ROOT)}
     runs = {k: [] for k in builds}
     for i in range(args.rounds):
         for k in (["earlier", "this"] if i % 2 == 0 else ["this", "earlier"]):
-            runs[k].append(medians(builds[k], args.frames))
+            runs[k].append(medians(*builds[k], args.frames))
             print(f"round {i + 1}, {k}: " + ", ".join(f"{p} {runs[k][-1][p]:.0f}" for p in PRESETS), flush=True)
     rows = []
     for p in PRESETS:
