@@ -251,13 +251,13 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[in
     a segment's values may reach an opacity change its ramp misses, as at a
     step transfer function's threshold) are then tried from REFINED_START
     times the step of the choice so far over its weight, unless a pilot
-    there costs twice the choice so far, and taken where, at the largest step they keep within the budget,
-    their pilot costs less than the choice so far's. Costs are sample counts
-    of pilots with the chosen early termination, weighted per sample
-    (:func:`refined_cost`): how many segments are refined depends on the
-    scene, and their samples cost more than a segment's. Sample counts
-    compare configs on the same rays, so they are taken on a pilot of a
-    quarter of the pilot's side.
+    there costs twice the choice so far, and taken where, at the largest
+    step they keep within the budget, their pilot costs less than the
+    choice so far's. Costs are sample counts of pilots with the chosen
+    early termination, weighted per sample (:func:`refined_cost`): how many
+    segments are refined depends on the scene, and their samples cost more
+    than a segment's. Sample counts compare configs on the same rays, so
+    they are taken on a pilot of a quarter of the pilot's side.
 
     Above one level the fine pilot is coarser by the target's fourth root:
     its own error, falling as h to h^2, is then a smaller share of the
@@ -369,11 +369,11 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[in
             if h_pre > PREINTEGRATED_COST * h:
                 pre, h, err = True, h_pre, err_pre
         # Refined segments, where they are cheaper than both: searched from
-        # a step whose frame would cost what the choice so far does if few
-        # segments were refined (not where a pilot there already takes
-        # twice the samples: refinement then fires on most segments, and
-        # its reach grows with the step), and taken where the pilot at the
-        # largest step they keep within the budget takes fewer samples.
+        # REFINED_START times the step of the choice so far over its weight
+        # (not where a pilot there already costs twice the choice so far:
+        # refinement then fires on most segments, and its reach grows with
+        # the step), and taken where the pilot at the largest step they
+        # keep within the budget costs less.
         weight = PREINTEGRATED_COST if pre else 1.0
         first = REFINED_START * h / weight
 
