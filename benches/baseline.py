@@ -4,7 +4,7 @@ run: the preset benchmark (examples/benchmark.py: the 256^3 benchmark scene,
 
 A speed-up quoted against a figure measured in another session compares two
 machines as much as two engines: on one Intel Xeon VM lavapipe ran the
-filing-time engine's balanced frame in 656 ms, where the figure filed for
+filing-time engine's balanced frame in 656-676 ms, where the figure filed for
 it, from an earlier VM, was 1293 ms. So the baseline is rebuilt here.
 
 The earlier commit is checked out into a git worktree under the temporary
