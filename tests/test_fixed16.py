@@ -67,6 +67,12 @@ def test_auto_stores_lit_volumes_in_16_bits_per_component(monkeypatch):
     assert renderer(lit_volume()).precision == "float32"
     monkeypatch.setattr("pyvr.renderer.cpu_cache_bytes", lambda: 2**16)
     assert renderer(lit_volume()).precision == ("fixed16" if cpu else "float32")
+    # A reported cache counts for at most TRUSTED_CPU_CACHE (a VM reports
+    # its host's, shared with other guests).
+    monkeypatch.setattr("pyvr.renderer.cpu_cache_bytes", lambda: 480 * 2**20)
+    assert renderer(lit_volume()).precision == "float32"
+    monkeypatch.setattr("pyvr.renderer.TRUSTED_CPU_CACHE", 2**16)
+    assert renderer(lit_volume()).precision == ("fixed16" if cpu else "float32")
     # Without normals auto keeps the values as they are.
     assert renderer(Volume(create_sample_volume(16))).precision == "float32"
 
