@@ -30,13 +30,15 @@ LEVELS = 255.0
 # 0.01: benches/preintegration.py).
 PREINTEGRATED_COST = 1.3
 # Midpoint samples of a refined pre-integrated segment (RenderConfig.refine)
-# where config_for_error tries them, and the time of each such sample over a
-# midpoint frame's sample. Measured on lavapipe: 1.6-1.7x on the narrow
-# peaks (a third to a half of the samples refined), 0.9x on Shepp-Logan
-# (nearly all); 5-11x on the helix, where one lane in a group refines and
-# the others wait, but there they are 2-4% of a frame's samples.
+# where config_for_error tries them, and the weight of each such sample on
+# PREINTEGRATED_COST's scale: 1.7 times a pre-integrated segment's 1.3.
+# Measured on lavapipe, a sub-sample takes 1.6-1.7x a pre-integrated
+# sample's time on the narrow peaks (a third to a half of the samples
+# refined), 0.9x on Shepp-Logan (nearly all), and 5-11x on the helix, where
+# one lane in a group refines and the others wait, but there they are 2-4%
+# of a frame's samples.
 REFINE = 8
-REFINED_COST = 2.2
+REFINED_COST = 1.7 * PREINTEGRATED_COST
 # Where config_for_error starts searching refined segments: this many times
 # the step of the choice so far, over its weight: a refined frame with few
 # segments refined costs 1.3x a midpoint frame per segment (the helix), so a
