@@ -8,9 +8,12 @@ filing-time engine's balanced frame in 656-676 ms, where the figure filed for
 it, from an earlier VM, was 1293 ms. So the baseline is rebuilt here.
 
 The earlier commit is checked out into a git worktree under the temporary
-folder, built with maturin into its own virtual environment (the Rust
-dependencies come from this checkout's target folder, so only pyvr itself
-compiles: a few minutes on 2 cores), and each build runs its own
+folder and built with maturin into its own virtual environment and its own
+cargo target folder (the first build compiles the dependencies too: about
+10 minutes on 2 cores; later runs reuse it). A target folder shared with
+this checkout would hand the earlier commit's library to this checkout's
+next build: cargo finds its own artifacts fresh and does not copy them
+back out. Each build runs its own
 examples/benchmark.py (the same scene and timing). Each round runs
 every preset in a fresh process per build, alternating which goes first;
 the table gives each build's median over the rounds' medians and their
@@ -54,7 +57,7 @@ def build(rev: str) -> tuple:
         subprocess.run([sys.executable, "-m", "venv", venv], check=True)
         subprocess.run([python, "-m", "pip", "install", "-q", "maturin>=1.7,<2", "numpy", "scipy", "pillow"],
                        check=True)
-    env = dict(os.environ, VIRTUAL_ENV=venv, CARGO_TARGET_DIR=os.path.join(ROOT, "target"))
+    env = dict(os.environ, VIRTUAL_ENV=venv, CARGO_TARGET_DIR=tree + "-target")
     print(f"building {short} in {tree} ...", flush=True)
     subprocess.run([os.path.join(venv, "bin", "maturin"), "develop", "--release", "-q"], cwd=tree, env=env,
                    check=True, stdout=subprocess.DEVNULL)
