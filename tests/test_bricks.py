@@ -28,6 +28,11 @@ def scene_data():
 
 def renderer(**kw):
     r = VolumeRenderer(64, 56, config=RenderConfig.balanced(), **kw)
+    # Bricked frames are the shader's: so is the single-texture frame they
+    # must equal to 0.05 level in straight colour, which f32 rounding
+    # changes by more where alpha is ~1e-10 (the native march's agreement
+    # with the shader is tests/test_native_march.py's).
+    r.native_march = False
     r.set_transfer_functions(ColorTransferFunction.from_colormap("viridis"), OpacityTransferFunction.linear(0.0, 0.5))
     r.set_camera(Camera.from_spherical(np.zeros(3), 0.7, 0.4, 0.0, 3.0))
     return r

@@ -7,6 +7,7 @@ use super::context::GpuContext;
 use crate::error::Error;
 use super::half::{f16_to_f32, f32_to_f16};
 use crate::config::OpacityCorrection;
+use crate::cpu::{CpuVolume, Texels};
 use crate::occupancy::{empty_radius, occupied_bounds, MinMaxGrid, SegmentRanges, UNIFORM_FLAG};
 use crate::gradients;
 use crate::preintegrate;
@@ -40,6 +41,29 @@ pub struct VolumeGpu {
     /// What the shader's texel value stands for: the sampled value is
     /// `stored.apply(texel.r)` (the identity but for fixed-point storage).
     pub stored: ValueMap,
+    /// The texels again for the native march (`crate::cpu`), where the
+    /// adapter is a CPU that runs it and the format is one it reads.
+    pub cpu: Option<CpuVolume>,
+}
+
+/// A copy of the texels for the native march: only where the adapter is a
+/// CPU (whose "device memory" is the same RAM) and the march runs there.
+fn cpu_copy(ctx: &GpuContext, format: wgpu::TextureFormat, dims: [usize; 3], bytes: &[u8]) -> Option<CpuVolume> {
+    if ctx.adapter_info.device_type != wgpu::DeviceType::Cpu || !crate::cpu::available() {
+        return None;
+    }
+    let texels = match format {
+        wgpu::TextureFormat::Rgba32Float => Texels::Rgba32Float(bytemuck::pod_collect_to_vec(bytes)),
+        wgpu::TextureFormat::Rgba16Snorm => Texels::Rgba16Snorm(bytemuck::pod_collect_to_vec(bytes)),
+        wgpu::TextureFormat::R32Float => Texels::R32Float(bytemuck::pod_collect_to_vec(bytes)),
+        wgpu::TextureFormat::R16Snorm => {
+            let mut codes: Vec<i16> = bytemuck::pod_collect_to_vec(bytes);
+            codes.push(0);
+            Texels::R16Snorm(codes)
+        }
+        _ => return None,
+    };
+    Some(CpuVolume { texels, dims })
 }
 
 impl VolumeGpu {
@@ -145,6 +169,7 @@ impl VolumeGpu {
             bytes: bytes.len() as u64 + normal_bytes,
             grid: MinMaxGrid::build(vol),
             stored: ValueMap::IDENTITY,
+            cpu: cpu_copy(ctx, format, vol.dims, bytes),
         })
     }
 
@@ -220,6 +245,7 @@ impl VolumeGpu {
             bytes: bytes.len() as u64,
             grid,
             stored: ValueMap::IDENTITY,
+            cpu: cpu_copy(ctx, format, texels, bytes),
         })
     }
 
@@ -468,11 +494,25 @@ pub struct Occupancy {
     /// The box of cells that are not empty (`occupancy::occupied_bounds`),
     /// in the grid's (numpy) axis order.
     pub occupied: Option<[[usize; 2]; 3]>,
+    /// The grid's size (cells, numpy axis order) and each cell's code as
+    /// the texture's second channel holds it (empty radius, or UNIFORM_FLAG
+    /// + uniform radius), followed by three zero bytes (the native march
+    /// reads each code as the low byte of a 32-bit word).
+    pub dims: [usize; 3],
+    pub codes: Vec<u8>,
 }
 
 impl Occupancy {
     pub fn new() -> Occupancy {
-        Occupancy { view: None, source: None, empty_fraction: 0.0, uniform_fraction: 0.0, occupied: None }
+        Occupancy {
+            view: None,
+            source: None,
+            empty_fraction: 0.0,
+            uniform_fraction: 0.0,
+            occupied: None,
+            dims: [0; 3],
+            codes: Vec::new(),
+        }
     }
 
     /// Uploads the grid `occ` (0 = empty) of `grid`'s cells, built from
@@ -506,6 +546,9 @@ impl Occupancy {
         let view = ctx.texture_with_data("uploading the occupancy grid", "occupancy", size, D3, rg8, 1, &data)?;
         self.empty_fraction = occ.iter().filter(|&&o| o == 0).count() as f64 / occ.len() as f64;
         self.occupied = occupied_bounds(occ, grid.dims);
+        self.dims = grid.dims;
+        radius.extend([0; 3]);
+        self.codes = radius;
         self.view = Some(view);
         self.source = Some(source);
         Ok(data.len() as u64)

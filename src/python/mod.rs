@@ -29,7 +29,10 @@ fn device_limits(py: Python<'_>) -> PyResult<Bound<'_, pyo3::types::PyDict>> {
     d.set_item("max_image_pixels", ctx.max_storage_bytes() / 16)?;
     d.set_item("float32_filterable", ctx.features.contains(wgpu::Features::FLOAT32_FILTERABLE))?;
     d.set_item("norm16_textures", ctx.features.contains(wgpu::Features::TEXTURE_FORMAT_16BIT_NORM))?;
-    d.set_item("cpu_device", ctx.adapter_info.device_type == wgpu::DeviceType::Cpu)?;
+    let cpu = ctx.adapter_info.device_type == wgpu::DeviceType::Cpu;
+    d.set_item("cpu_device", cpu)?;
+    // Frames the native CPU march covers are rendered by it (crate::cpu).
+    d.set_item("native_march", cpu && crate::cpu::available())?;
     Ok(d)
 }
 

@@ -141,6 +141,7 @@ fn stats_dict<'py>(py: Python<'py>, stats: &crate::gpu::FrameStats) -> PyResult<
     d.set_item("uploaded_bytes", stats.uploaded_bytes)?;
     d.set_item("passes", stats.passes)?;
     d.set_item("samples", stats.samples)?;
+    d.set_item("engine", if stats.native { "native" } else { "gpu" })?;
     Ok(d)
 }
 
@@ -380,6 +381,16 @@ impl PyRenderer {
     #[setter]
     fn set_uniform_runs(&mut self, on: bool) {
         self.inner.uniform_runs = on;
+    }
+
+    /// Frames the native CPU march covers are rendered by it where the adapter is a CPU (default on).
+    #[getter]
+    fn get_native_march(&self) -> bool {
+        self.inner.native_march
+    }
+    #[setter]
+    fn set_native_march(&mut self, on: bool) {
+        self.inner.native_march = on;
     }
 
     /// Fraction of the volume's 8^3-voxel cells the current transfer function leaves empty.

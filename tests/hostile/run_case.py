@@ -148,6 +148,16 @@ def case_sigint_gpu():
     return True
 
 
+def case_sigint_native():
+    # max_steps within the native march's limit: on a CPU adapter this frame is the native march's.
+    from pyvr.config import RenderConfig
+
+    r = renderer((64, 64))
+    interrupted(lambda: r.render(config=RenderConfig(step_size=1e-7, max_steps=2**30, early_ray_termination=False)))
+    r.render()
+    return True
+
+
 def case_sigint_float64():
     # With the progress bar (tqdm is installed with the test extras): the
     # KeyboardInterrupt may surface in the bar's update.

@@ -1,7 +1,7 @@
 //! A renderer's frame: check, plan, bind, dispatch, read back.
 
 use super::{Ends, FrameStats, GpuRenderer, Rect, LEAP_MIN_UNIFORM, SKIP_MIN_EMPTY, STATS_BYTES};
-use crate::config::RenderConfig;
+use crate::config::{OpacityCorrection, RenderConfig};
 use crate::gpu::bindings;
 use crate::error::{try_vec, Error};
 use crate::gpu::params::{world_unit, FrameInputs, Params};
@@ -53,6 +53,9 @@ impl GpuRenderer {
             return Ok(self.finish_frame(FrameStats::default(), 0));
         }
         let (variant, passes) = self.prepare(camera, light, cfg)?;
+        if self.native_covers(&variant, cfg) {
+            return self.render_native(&variant, &params, out, stop);
+        }
         self.bind(variant.layout.hw_filter)?;
         let started = std::time::Instant::now();
         let bind_group = self.bind_group.as_ref().expect("bound above").0.clone();
@@ -62,8 +65,53 @@ impl GpuRenderer {
         self.depth_unit = world_unit(&self.volume.as_ref().expect("checked by check_ready").bounds);
         self.measure_speed(passes.planned_samples, started.elapsed());
         let uniforms = passes.passes as u64 * std::mem::size_of::<Params>() as u64 + STATS_BYTES;
-        let stats = FrameStats { truncated_needed, uploaded_bytes: 0, passes: passes.passes, samples };
+        let stats = FrameStats { truncated_needed, uploaded_bytes: 0, passes: passes.passes, samples, native: false };
         Ok(self.finish_frame(stats, uniforms))
+    }
+
+    /// Whether the native CPU march renders this frame: the volume's texels
+    /// are kept for it (the adapter is a CPU that runs it) and the frame is
+    /// of the kind it covers (`crate::cpu`). Frames that composite runs of
+    /// uniform cells whole stay on the shader, which takes far fewer
+    /// samples there than the native march would.
+    fn native_covers(&self, variant: &Variant, cfg: &RenderConfig) -> bool {
+        let Some(cpu) = self.volume.as_ref().and_then(|v| v.cpu.as_ref()) else {
+            return false;
+        };
+        let shading = match variant.shading {
+            Shading::AmbientOnly => true,
+            Shading::Normals => variant.layout.normals_in_volume && cpu.has_normals(),
+            Shading::Gradient => false,
+        };
+        self.native_march
+            && shading
+            && variant.model == Model::EmissionAbsorption
+            && !variant.back_to_front
+            && !variant.pre_integrated
+            && variant.refine == 0
+            && !variant.unbiased
+            && !variant.point_light
+            && !variant.uniform_cells
+            && variant.correction == OpacityCorrection::Exponential
+            && self.tables.rows.len() >= 2
+            && cfg.max_steps <= crate::cpu::MAX_STEPS as i64
+    }
+
+    fn render_native(&mut self, variant: &Variant, params: &Params, out: &mut [f32], stop: &mut dyn FnMut() -> bool) -> Result<FrameStats, Error> {
+        let cpu = self.volume.as_ref().and_then(|v| v.cpu.as_ref()).expect("checked by native_covers");
+        let occ = &self.occupancy;
+        let frame = crate::cpu::Frame {
+            params,
+            volume: cpu,
+            lut: &self.tables.rows,
+            empty_radius: (variant.skip_empty && !occ.codes.is_empty()).then_some((&occ.codes[..], occ.dims)),
+            lit: variant.shading == Shading::Normals,
+            early_termination: variant.early_termination,
+            jitter: variant.jitter,
+        };
+        let s = crate::cpu::render(&frame, bytemuck::cast_slice_mut(out), stop).map_err(|_| Error::Interrupted)?;
+        let stats = FrameStats { truncated_needed: s.truncated_needed, uploaded_bytes: 0, passes: 1, samples: s.samples, native: true };
+        Ok(self.finish_frame(stats, 0))
     }
 
     /// Copies the last dispatch's image into `out`; returns the frame's

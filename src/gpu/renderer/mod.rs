@@ -59,6 +59,8 @@ pub struct FrameStats {
     pub passes: u32,
     /// Samples the frame took over all rays (skipped empty space not counted).
     pub samples: u64,
+    /// The native CPU march (`crate::cpu`) rendered it, not the shader.
+    pub native: bool,
 }
 
 /// Counters over the renderer's life.
@@ -107,6 +109,10 @@ pub struct GpuRenderer {
     /// Interpolate in the shader even when the format could be filtered
     /// (the path used without FLOAT32_FILTERABLE); for tests and comparisons.
     pub shader_filtering: bool,
+    /// Frames the native CPU march covers are rendered by it where the
+    /// adapter is a CPU (`crate::cpu`); off: always the shader. On unless
+    /// the environment sets PYVR_NATIVE_MARCH=0.
+    pub native_march: bool,
     /// The bind group and the filtering it was made for.
     bind_group: Option<(wgpu::BindGroup, bool)>,
     /// The last frame was an isosurface: its depth is in the ray state.
@@ -193,6 +199,9 @@ impl GpuRenderer {
             skip_empty: true,
             uniform_runs: true,
             shader_filtering: false,
+            // PYVR_NATIVE_MARCH=0 keeps every frame on the shader (the test
+            // suite runs once so, to test the shader's path on a CPU too).
+            native_march: std::env::var("PYVR_NATIVE_MARCH").map_or(true, |v| v != "0"),
             bind_group: None,
             depth_ready: false,
             depth_unit: 1.0,

@@ -1,0 +1,424 @@
+//! Eight rays in the lanes of AVX2 registers: each lane walks its own
+//! segment index, leaping or compositing as the shader's invocation would,
+//! until every lane's ray is done.
+
+use super::{Frame, Ray, Stats, CELL, TILE};
+use std::arch::x86_64::*;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// Where a march reads its texels: the offsets of each axis's two corner
+/// planes (in the storage's units) and the trilinear weights give eight
+/// lanes' interpolated (value, normal); the normal is 0 where none is held.
+pub trait Texels {
+    /// Offsets of one voxel step along each numpy axis.
+    fn strides(&self, dims: [usize; 3]) -> [i32; 3];
+    /// What one unit of the interpolated value channel stands for.
+    fn value_unit(&self) -> f32;
+    /// # Safety
+    /// Needs AVX2 and FMA; every offset must address a texel.
+    unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4];
+}
+
+#[inline]
+#[target_feature(enable = "avx2,fma")]
+fn lerp(x: __m256, y: __m256, t: __m256) -> __m256 {
+    _mm256_fmadd_ps(_mm256_sub_ps(y, x), t, x)
+}
+
+/// Trilinear interpolation of channels read by `corner` at each corner's offset.
+#[inline]
+#[target_feature(enable = "avx2,fma")]
+fn interpolate<const C: usize>(
+    offs: &[[__m256i; 2]; 3],
+    w: &[__m256; 3],
+    corner: impl Fn(__m256i) -> [__m256; C],
+) -> [__m256; C] {
+    let mix = |x: [__m256; C], y: [__m256; C], t: __m256| std::array::from_fn(|c| lerp(x[c], y[c], t));
+    let plane = |o0: __m256i| {
+        let row = |o1: __m256i| {
+            let b = _mm256_add_epi32(o0, o1);
+            mix(corner(_mm256_add_epi32(b, offs[2][0])), corner(_mm256_add_epi32(b, offs[2][1])), w[2])
+        };
+        mix(row(offs[1][0]), row(offs[1][1]), w[1])
+    };
+    mix(plane(offs[0][0]), plane(offs[0][1]), w[0])
+}
+
+fn numpy_strides([_, d1, d2]: [usize; 3], per_texel: usize) -> [i32; 3] {
+    [(d1 * d2 * per_texel) as i32, (d2 * per_texel) as i32, per_texel as i32]
+}
+
+pub struct Rgba32Float<'a>(pub &'a [[f32; 4]]);
+
+impl Texels for Rgba32Float<'_> {
+    fn strides(&self, dims: [usize; 3]) -> [i32; 3] {
+        numpy_strides(dims, 4)
+    }
+    fn value_unit(&self) -> f32 {
+        1.0
+    }
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4] {
+        let base = self.0.as_ptr() as *const f32;
+        interpolate(offs, w, |o| {
+            // SAFETY: offsets address texels (the caller's contract).
+            std::array::from_fn(|c| unsafe { _mm256_i32gather_ps::<4>(base.add(c), o) })
+        })
+    }
+}
+
+/// One 64-bit gather of four lanes' texels reads all four channels of a
+/// corner: a quarter of float32's gathered elements.
+pub struct Rgba16Snorm<'a>(pub &'a [[i16; 4]]);
+
+impl Texels for Rgba16Snorm<'_> {
+    fn strides(&self, dims: [usize; 3]) -> [i32; 3] {
+        numpy_strides(dims, 1)
+    }
+    fn value_unit(&self) -> f32 {
+        1.0 / crate::fixed16::CODE_MAX as f32
+    }
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4] {
+        let base = self.0.as_ptr() as *const i64;
+        // Lanes (0, 1, 4, 5) and (2, 3, 6, 7) are gathered apart, so that
+        // one shuffle of the two results' even (odd) 32-bit words puts each
+        // lane's (value, nx) ((ny, nz)) in lane order.
+        let order = _mm256_setr_epi32(0, 1, 4, 5, 2, 3, 6, 7);
+        let low = |x: __m256i| _mm256_cvtepi32_ps(_mm256_srai_epi32::<16>(_mm256_slli_epi32::<16>(x)));
+        let high = |x: __m256i| _mm256_cvtepi32_ps(_mm256_srai_epi32::<16>(x));
+        interpolate(offs, w, |o| {
+            let o = _mm256_permutevar8x32_epi32(o, order);
+            // SAFETY: offsets address texels (the caller's contract).
+            let (a, b) = unsafe {
+                (
+                    _mm256_castsi256_ps(_mm256_i32gather_epi64::<8>(base, _mm256_castsi256_si128(o))),
+                    _mm256_castsi256_ps(_mm256_i32gather_epi64::<8>(base, _mm256_extracti128_si256::<1>(o))),
+                )
+            };
+            let first = _mm256_castps_si256(_mm256_shuffle_ps::<0x88>(a, b));
+            let second = _mm256_castps_si256(_mm256_shuffle_ps::<0xDD>(a, b));
+            [low(first), high(first), low(second), high(second)]
+        })
+    }
+}
+
+pub struct R32Float<'a>(pub &'a [f32]);
+
+impl Texels for R32Float<'_> {
+    fn strides(&self, dims: [usize; 3]) -> [i32; 3] {
+        numpy_strides(dims, 1)
+    }
+    fn value_unit(&self) -> f32 {
+        1.0
+    }
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4] {
+        let base = self.0.as_ptr();
+        // SAFETY: offsets address texels (the caller's contract).
+        let [v] = interpolate(offs, w, |o| [unsafe { _mm256_i32gather_ps::<4>(base, o) }]);
+        let zero = _mm256_setzero_ps();
+        [v, zero, zero, zero]
+    }
+}
+
+/// Codes read as the low halves of 32-bit words (the storage holds one
+/// code past the last texel).
+pub struct R16Snorm<'a>(pub &'a [i16]);
+
+impl Texels for R16Snorm<'_> {
+    fn strides(&self, dims: [usize; 3]) -> [i32; 3] {
+        numpy_strides(dims, 1)
+    }
+    fn value_unit(&self) -> f32 {
+        1.0 / crate::fixed16::CODE_MAX as f32
+    }
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4] {
+        let base = self.0.as_ptr() as *const i32;
+        let [v] = interpolate(offs, w, |o| {
+            // SAFETY: offsets address texels, and one code follows the last.
+            let x = unsafe { _mm256_i32gather_epi32::<2>(base, o) };
+            [_mm256_cvtepi32_ps(_mm256_srai_epi32::<16>(_mm256_slli_epi32::<16>(x)))]
+        });
+        let zero = _mm256_setzero_ps();
+        [v, zero, zero, zero]
+    }
+}
+
+/// e^x for x <= 0 (2^(x log2 e), degree-6 polynomial): relative error
+/// ~2e-7; below -87 it returns ~1.6e-38, under the 1e-30 at which a ray
+/// stops with transmittance 0, as the shader's exp underflows to.
+#[inline]
+#[target_feature(enable = "avx2,fma")]
+fn exp_nonpositive(x: __m256) -> __m256 {
+    let x = _mm256_max_ps(x, _mm256_set1_ps(-87.0));
+    let t = _mm256_mul_ps(x, _mm256_set1_ps(std::f32::consts::LOG2_E));
+    let k = _mm256_round_ps::<{ _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC }>(t);
+    let r = _mm256_mul_ps(_mm256_sub_ps(t, k), _mm256_set1_ps(std::f32::consts::LN_2));
+    let mut poly = _mm256_set1_ps(1.0 / 720.0);
+    for c in [1.0 / 120.0, 1.0 / 24.0, 1.0 / 6.0, 0.5, 1.0, 1.0] {
+        poly = _mm256_fmadd_ps(poly, r, _mm256_set1_ps(c));
+    }
+    let bits = _mm256_slli_epi32::<23>(_mm256_add_epi32(_mm256_cvtps_epi32(k), _mm256_set1_epi32(127)));
+    _mm256_mul_ps(poly, _mm256_castsi256_ps(bits))
+}
+
+/// 1 - e^-x for x >= 0, by its series below 1e-3 (compositing.wgsl).
+#[inline]
+#[target_feature(enable = "avx2,fma")]
+fn one_minus_exp_neg(x: __m256) -> __m256 {
+    let one = _mm256_set1_ps(1.0);
+    let series = _mm256_mul_ps(x, _mm256_fnmadd_ps(x, _mm256_fnmadd_ps(x, _mm256_set1_ps(1.0 / 6.0), _mm256_set1_ps(0.5)), one));
+    let full = _mm256_sub_ps(one, exp_nonpositive(_mm256_sub_ps(_mm256_setzero_ps(), x)));
+    _mm256_blendv_ps(full, series, _mm256_cmp_ps::<_CMP_LT_OQ>(x, _mm256_set1_ps(1e-3)))
+}
+
+/// The eight rays of `rays` (None: no ray; its pixel stays transparent).
+///
+/// Stops early (its pixels then are garbage) once `halt` is set.
+///
+/// # Safety
+/// Needs AVX2 and FMA; `f.empty_radius`, where given, is followed by three
+/// readable bytes, and R16Snorm codes by one (`super::render` checks).
+#[target_feature(enable = "avx2,fma")]
+pub unsafe fn march<T: Texels>(
+    f: &Frame,
+    tex: &T,
+    rays: &[Option<Ray>; TILE],
+    out: &mut [[f32; 4]; TILE],
+    halt: &AtomicBool,
+) -> Stats {
+    let p = f.params;
+    let dims = f.volume.dims;
+    let lanes = |g: &dyn Fn(&Ray) -> f32| -> __m256 {
+        let a: [f32; 8] = std::array::from_fn(|l| rays[l].as_ref().map_or(0.0, g));
+        _mm256_loadu_ps(a.as_ptr())
+    };
+    let lanes_i = |g: &dyn Fn(&Ray) -> u32| -> __m256i {
+        let a: [i32; 8] = std::array::from_fn(|l| rays[l].as_ref().map_or(0, |r| g(r) as i32));
+        _mm256_loadu_si256(a.as_ptr() as *const __m256i)
+    };
+    // Cell-centred voxel coordinates along each numpy axis at the chord's
+    // start, and per unit of ray parameter.
+    let start: [__m256; 3] = std::array::from_fn(|k| {
+        lanes(&|r| ((p.cam_pos[k] + r.d[k] * r.t0) * p.tex_scale[k] + p.tex_offset[k]) * dims[k] as f32 - 0.5)
+    });
+    let per: [__m256; 3] = std::array::from_fn(|k| lanes(&|r| r.d[k] * p.tex_scale[k] * dims[k] as f32));
+    let moving: [__m256; 3] = std::array::from_fn(|k| _mm256_cmp_ps::<_CMP_NEQ_OQ>(per[k], _mm256_setzero_ps()));
+    let ahead: [__m256; 3] = std::array::from_fn(|k| _mm256_cmp_ps::<_CMP_GT_OQ>(per[k], _mm256_setzero_ps()));
+    let shift = lanes(&|r| r.shift);
+    let chord = lanes(&|r| r.chord);
+    let n = lanes_i(&|r| r.n);
+    let limit = lanes_i(&|r| r.window.1);
+    let mut i = lanes_i(&|r| r.window.0);
+
+    let (zero, one) = (_mm256_setzero_ps(), _mm256_set1_ps(1.0));
+    let (zi, onei) = (_mm256_setzero_si256(), _mm256_set1_epi32(1));
+    let h = _mm256_set1_ps(p.step_size);
+    let shift_h = _mm256_mul_ps(shift, h);
+    let first_len = _mm256_min_ps(_mm256_mul_ps(_mm256_add_ps(one, shift), h), chord);
+    let hi: [__m256i; 3] = dims.map(|d| _mm256_set1_epi32(d as i32 - 1));
+    let stride = tex.strides(dims).map(|s| _mm256_set1_epi32(s));
+    let value_scale = _mm256_set1_ps(p.value_scale * tex.value_unit());
+    let value_offset = _mm256_set1_ps(p.value_offset);
+    let m = f.lut.len();
+    let lut_scale = _mm256_set1_ps((m - 1) as f32);
+    let lut_last = _mm256_set1_epi32(m as i32 - 2);
+    let lut = f.lut.as_ptr() as *const f32;
+    let seg_unit = _mm256_set1_ps(p.inv_ref);
+    let light_dir: [__m256; 3] = std::array::from_fn(|k| _mm256_set1_ps(p.light_dir[k]));
+    let (ambient, diffuse) = (_mm256_set1_ps(p.ambient), _mm256_set1_ps(p.diffuse));
+    let directional = f.lit && p.light_valid == 1;
+    let threshold = _mm256_set1_ps(p.threshold);
+    let cell = _mm256_set1_ps(1.0 / CELL);
+    let border = _mm256_set1_ps(0.5 - p.border as f32);
+    let (radius_grid, grid) = match f.empty_radius {
+        Some((g, d)) => (g.as_ptr() as *const i32, d),
+        None => (std::ptr::null(), [1, 1, 1]),
+    };
+    let grid_hi: [__m256i; 3] = grid.map(|d| _mm256_set1_epi32(d as i32 - 1));
+    let grid_stride = numpy_strides(grid, 1).map(|s| _mm256_set1_epi32(s));
+
+    let as_ps = _mm256_castsi256_ps;
+    let mut active = as_ps(_mm256_cmpgt_epi32(limit, i));
+    let mut stopped = zero;
+    let (mut color, mut color_b) = ([zero; 3], [zero; 3]);
+    let (mut tau, mut tau_b, mut trans) = (zero, zero, one);
+    let (mut taken, mut blocks) = (zi, zi);
+    let mut steps = 0u32;
+    while _mm256_movemask_ps(active) != 0 {
+        steps = steps.wrapping_add(1);
+        if steps % 1024 == 0 && halt.load(Ordering::Relaxed) {
+            break;
+        }
+        taken = _mm256_sub_epi32(taken, _mm256_castps_si256(active));
+        // The segment (rays.wgsl `span`): the first one is shorter under jitter.
+        let a = _mm256_fmadd_ps(_mm256_cvtepi32_ps(i), h, shift_h);
+        let before = _mm256_cmp_ps::<_CMP_LT_OQ>(a, zero);
+        let start_at = _mm256_andnot_ps(before, a);
+        let seg = _mm256_blendv_ps(_mm256_max_ps(_mm256_min_ps(h, _mm256_sub_ps(chord, a)), zero), first_len, before);
+        let mid = _mm256_fmadd_ps(seg, _mm256_set1_ps(0.5), start_at);
+        let u: [__m256; 3] = std::array::from_fn(|k| _mm256_fmadd_ps(per[k], mid, start[k]));
+        let mut w = [zero; 3];
+        let mut offs = [[zi; 2]; 3];
+        for k in 0..3 {
+            let fl = _mm256_floor_ps(u[k]);
+            w[k] = _mm256_sub_ps(u[k], fl);
+            let base = _mm256_cvttps_epi32(fl);
+            let clamp = |v: __m256i| _mm256_min_epi32(_mm256_max_epi32(v, zi), hi[k]);
+            offs[k] = [
+                _mm256_mullo_epi32(clamp(base), stride[k]),
+                _mm256_mullo_epi32(clamp(_mm256_add_epi32(base, onei)), stride[k]),
+            ];
+        }
+        let texel = tex.trilinear(&offs, &w);
+        // The table's entry (sampling.wgsl `eval_lut`); NaN reads as opacity 0.
+        let v = _mm256_fmadd_ps(texel[0], value_scale, value_offset);
+        let valid = _mm256_cmp_ps::<_CMP_ORD_Q>(v, v);
+        let xl = _mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(_mm256_and_ps(v, valid), zero), one), lut_scale);
+        let k = _mm256_min_epi32(_mm256_cvttps_epi32(xl), lut_last);
+        let t = _mm256_sub_ps(xl, _mm256_cvtepi32_ps(k));
+        let k4 = _mm256_slli_epi32::<2>(k);
+        let rgba: [__m256; 4] = std::array::from_fn(|c| {
+            let at = _mm256_add_epi32(k4, _mm256_set1_epi32(c as i32));
+            let e0 = _mm256_i32gather_ps::<4>(lut, at);
+            let e1 = _mm256_i32gather_ps::<4>(lut, _mm256_add_epi32(at, _mm256_set1_epi32(4)));
+            lerp(e0, e1, t)
+        });
+        let sigma = _mm256_and_ps(rgba[3], valid);
+        let seen = _mm256_and_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(sigma, zero), _mm256_cmp_ps::<_CMP_GT_OQ>(seg, zero));
+        let x = _mm256_and_ps(_mm256_min_ps(_mm256_mul_ps(sigma, _mm256_mul_ps(seg, seg_unit)), _mm256_set1_ps(1.0e30)), seen);
+        let empty = _mm256_cmp_ps::<_CMP_NGT_UQ>(x, zero);
+
+        // Leaps (compositing.wgsl `cube_leap`, skipping.wgsl `cube_exit`).
+        let mut leap = zero;
+        let mut next = i;
+        if !radius_grid.is_null() && _mm256_movemask_ps(_mm256_and_ps(empty, active)) != 0 {
+            let uc: [__m256; 3] = std::array::from_fn(|k| _mm256_add_ps(u[k], border));
+            let c: [__m256i; 3] = std::array::from_fn(|k| {
+                let ci = _mm256_cvttps_epi32(_mm256_floor_ps(_mm256_mul_ps(uc[k], cell)));
+                _mm256_min_epi32(_mm256_max_epi32(ci, zi), grid_hi[k])
+            });
+            let at = _mm256_add_epi32(
+                _mm256_add_epi32(_mm256_mullo_epi32(c[0], grid_stride[0]), _mm256_mullo_epi32(c[1], grid_stride[1])),
+                c[2],
+            );
+            let code = _mm256_and_si256(_mm256_i32gather_epi32::<1>(radius_grid, at), _mm256_set1_epi32(0xff));
+            // Codes from UNIFORM_FLAG up mark uniform cells, which are not empty.
+            let flag = _mm256_set1_epi32(crate::occupancy::UNIFORM_FLAG as i32);
+            let radius = _mm256_andnot_si256(_mm256_cmpgt_epi32(code, _mm256_sub_epi32(flag, onei)), code);
+            leap = _mm256_and_ps(_mm256_and_ps(empty, active), as_ps(_mm256_cmpgt_epi32(radius, zi)));
+            let mut exit = _mm256_set1_ps(3.0e38);
+            for k in 0..3 {
+                let lo = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_sub_epi32(c[k], _mm256_sub_epi32(radius, onei))), _mm256_set1_ps(CELL));
+                let up = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_add_epi32(c[k], radius)), _mm256_set1_ps(CELL));
+                let side = _mm256_blendv_ps(lo, up, ahead[k]);
+                let tk = _mm256_div_ps(_mm256_sub_ps(side, uc[k]), _mm256_blendv_ps(one, per[k], moving[k]));
+                exit = _mm256_min_ps(exit, _mm256_blendv_ps(_mm256_set1_ps(3.0e38), tk, moving[k]));
+            }
+            exit = _mm256_max_ps(exit, zero);
+            // compositing.wgsl `segment_past`: a thousandth of a step early.
+            let kf = _mm256_ceil_ps(_mm256_sub_ps(
+                _mm256_sub_ps(_mm256_div_ps(_mm256_add_ps(mid, exit), h), _mm256_set1_ps(0.5)),
+                _mm256_add_ps(shift, _mm256_set1_ps(1e-3)),
+            ));
+            let lowest = _mm256_cvtepi32_ps(_mm256_add_epi32(i, onei));
+            let kf = _mm256_min_ps(_mm256_max_ps(kf, lowest), _mm256_cvtepi32_ps(n));
+            next = _mm256_cvttps_epi32(kf);
+        }
+
+        let blend = _mm256_andnot_ps(leap, active);
+        let mut light = ambient;
+        if directional {
+            let mag = _mm256_max_ps(
+                _mm256_max_ps(abs(texel[1]), abs(texel[2])),
+                abs(texel[3]),
+            );
+            let lit = _mm256_cmp_ps::<_CMP_GT_OQ>(mag, zero);
+            let inv = _mm256_div_ps(one, _mm256_blendv_ps(one, mag, lit));
+            let nrm: [__m256; 3] = std::array::from_fn(|c| _mm256_mul_ps(texel[c + 1], inv));
+            let len = _mm256_sqrt_ps(_mm256_fmadd_ps(nrm[0], nrm[0], _mm256_fmadd_ps(nrm[1], nrm[1], _mm256_mul_ps(nrm[2], nrm[2]))));
+            let dot = _mm256_fmadd_ps(nrm[0], light_dir[0], _mm256_fmadd_ps(nrm[1], light_dir[1], _mm256_mul_ps(nrm[2], light_dir[2])));
+            let cos = _mm256_max_ps(_mm256_div_ps(dot, _mm256_blendv_ps(one, len, lit)), zero);
+            light = _mm256_blendv_ps(ambient, _mm256_fmadd_ps(diffuse, cos, ambient), lit);
+        }
+        let weight = _mm256_and_ps(_mm256_mul_ps(_mm256_mul_ps(trans, one_minus_exp_neg(x)), light), blend);
+        for c in 0..3 {
+            color_b[c] = _mm256_fmadd_ps(weight, rgba[c], color_b[c]);
+        }
+        tau_b = _mm256_add_ps(tau_b, _mm256_and_ps(x, blend));
+        // Partial sums of 2^8 samples folded into the totals.
+        let block = _mm256_srli_epi32::<8>(taken);
+        let fold = _mm256_and_ps(blend, _mm256_xor_ps(as_ps(_mm256_cmpeq_epi32(block, blocks)), as_ps(_mm256_set1_epi32(-1))));
+        if _mm256_movemask_ps(fold) != 0 {
+            blocks = _mm256_castps_si256(_mm256_blendv_ps(as_ps(blocks), as_ps(block), fold));
+            for c in 0..3 {
+                color[c] = _mm256_add_ps(color[c], _mm256_and_ps(color_b[c], fold));
+                color_b[c] = _mm256_andnot_ps(fold, color_b[c]);
+            }
+            tau = _mm256_add_ps(tau, _mm256_and_ps(tau_b, fold));
+            tau_b = _mm256_andnot_ps(fold, tau_b);
+        }
+        let total = _mm256_add_ps(tau, tau_b);
+        trans = _mm256_blendv_ps(trans, exp_nonpositive(_mm256_sub_ps(zero, total)), blend);
+        let mut stop = zero;
+        if f.early_termination {
+            stop = _mm256_and_ps(
+                _mm256_cmp_ps::<_CMP_GT_OQ>(total, zero),
+                _mm256_cmp_ps::<_CMP_GE_OQ>(_mm256_sub_ps(one, trans), threshold),
+            );
+        }
+        let faded = _mm256_and_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(trans, _mm256_set1_ps(1e-30)), blend);
+        trans = _mm256_andnot_ps(faded, trans);
+        stopped = _mm256_or_ps(stopped, _mm256_and_ps(_mm256_or_ps(stop, faded), blend));
+        i = _mm256_castps_si256(_mm256_blendv_ps(
+            as_ps(_mm256_add_epi32(i, _mm256_and_si256(_mm256_castps_si256(blend), onei))),
+            as_ps(next),
+            leap,
+        ));
+        active = _mm256_andnot_ps(stopped, _mm256_and_ps(active, as_ps(_mm256_cmpgt_epi32(limit, i))));
+    }
+
+    let mut lanes_out = [[0f32; 8]; 9];
+    for c in 0..3 {
+        _mm256_storeu_ps(lanes_out[c].as_mut_ptr(), _mm256_add_ps(color[c], color_b[c]));
+    }
+    _mm256_storeu_ps(lanes_out[3].as_mut_ptr(), _mm256_add_ps(tau, tau_b));
+    _mm256_storeu_ps(lanes_out[4].as_mut_ptr(), trans);
+    _mm256_storeu_ps(lanes_out[5].as_mut_ptr(), stopped);
+    let mut counts = [0i32; 8];
+    _mm256_storeu_si256(counts.as_mut_ptr() as *mut __m256i, taken);
+    let mut stats = Stats::default();
+    for l in 0..TILE {
+        let Some(r) = &rays[l] else {
+            out[l] = [0.0; 4];
+            continue;
+        };
+        stats.samples += counts[l] as u64;
+        let was_stopped = lanes_out[5][l].to_bits() != 0;
+        if !was_stopped && r.n < r.needed {
+            stats.truncated_needed = stats.truncated_needed.max(r.needed);
+        }
+        let tau = lanes_out[3][l];
+        let alpha = if lanes_out[4][l] == 0.0 {
+            1.0
+        } else if tau < 1e-3 {
+            tau * (1.0 - tau * (0.5 - tau * (1.0 / 6.0)))
+        } else {
+            1.0 - (-tau).exp()
+        };
+        out[l] = [lanes_out[0][l], lanes_out[1][l], lanes_out[2][l], alpha];
+    }
+    stats
+}
+
+#[inline]
+#[target_feature(enable = "avx2,fma")]
+fn abs(x: __m256) -> __m256 {
+    _mm256_andnot_ps(_mm256_set1_ps(-0.0), x)
+}

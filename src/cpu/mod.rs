@@ -1,0 +1,315 @@
+//! A native march for machines whose only adapter is a CPU.
+//!
+//! There wgpu runs the shader on lavapipe, whose 8-wide code gathers each
+//! texel channel by channel and pays for every branch any lane takes. This
+//! march runs the same rule (shaders/main.wgsl, compositing.wgsl,
+//! skipping.wgsl: the same segments, lookups, light, partial sums, leaps
+//! and early termination) with eight rays in the lanes of AVX2 registers on
+//! every core, reading each 16-bit fixed-point texel (value and normal) in
+//! one 64-bit gather. It covers the frames most CPU-only users render:
+//! emission–absorption marched front to back at the midpoint, exponential
+//! opacity correction, no light or a directional one lighting from normals
+//! held in the texels, with or without jitter, from a volume held in one
+//! texture. Everything else stays on the GPU path, whose images these
+//! match (tests/test_native_march.py).
+
+#[cfg(target_arch = "x86_64")]
+mod avx2;
+
+use crate::gpu::params::Params;
+use crate::occupancy::BLOCK;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+
+/// The volume's texels as the GPU path's texture holds them (numpy axis
+/// order, axis 2 fastest), kept on the CPU for the native march.
+pub enum Texels {
+    /// (value, unit normal or gradient) in float32.
+    Rgba32Float(Vec<[f32; 4]>),
+    /// (value code, unit normal codes) in 16-bit fixed point.
+    Rgba16Snorm(Vec<[i16; 4]>),
+    R32Float(Vec<f32>),
+    /// Value codes, and one more past the last so that every code can be
+    /// read as the low half of a 32-bit word.
+    R16Snorm(Vec<i16>),
+}
+
+pub struct CpuVolume {
+    pub texels: Texels,
+    /// The texture's size (the volume's, or larger by a border).
+    pub dims: [usize; 3],
+}
+
+impl CpuVolume {
+    /// Whether each texel holds a normal (or gradient) beside its value.
+    pub fn has_normals(&self) -> bool {
+        matches!(self.texels, Texels::Rgba32Float(_) | Texels::Rgba16Snorm(_))
+    }
+
+    pub fn bytes(&self) -> u64 {
+        let n = self.dims.iter().product::<usize>() as u64;
+        n * match self.texels {
+            Texels::Rgba32Float(_) => 16,
+            Texels::Rgba16Snorm(_) => 8,
+            Texels::R32Float(_) => 4,
+            Texels::R16Snorm(_) => 2,
+        }
+    }
+}
+
+/// One frame of the native march.
+pub struct Frame<'a> {
+    /// The uniform block the shader would read (one pass, not bricked).
+    pub params: &'a Params,
+    pub volume: &'a CpuVolume,
+    /// The transfer function's table (entries at scalars m / (M - 1)).
+    pub lut: &'a [[f32; 4]],
+    /// Empty-space skipping: each occupancy cell's empty radius (0 for a
+    /// cell that is not empty; a uniform cell's code counts as not empty),
+    /// cells of `BLOCK` voxels in numpy axis order, and the grid's size.
+    pub empty_radius: Option<(&'a [u8], [usize; 3])>,
+    /// The texels' normals light the samples (else ambient light only).
+    pub lit: bool,
+    pub early_termination: bool,
+    pub jitter: bool,
+}
+
+/// What a native frame took.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Stats {
+    pub samples: u64,
+    /// The largest step count a ray cut short by max_steps needed (0: none).
+    pub truncated_needed: u32,
+}
+
+/// Whether this machine runs the native march (x86-64 with AVX2 and FMA).
+pub fn available() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// The frame was stopped by the caller.
+#[derive(Debug)]
+pub struct Interrupted;
+
+/// Pixels a side of the tiles handed to the cores in turn: eight rays of a
+/// row share a register, and a tile's rows, marched one after another on
+/// one core, find the voxels the row before read in that core's caches.
+const TILE: usize = 8;
+
+/// The image's pointer, shared by the workers, each of which writes only
+/// the pixels of the tiles it takes.
+struct Image(*mut [f32; 4]);
+unsafe impl Sync for Image {}
+
+impl Image {
+    /// # Safety
+    /// `i` must lie in the image, and no other thread may write pixel `i`.
+    unsafe fn write(&self, i: usize, c: [f32; 4]) {
+        unsafe { *self.0.add(i) = c };
+    }
+}
+
+/// Renders the frame into `out` (width * height premultiplied RGBA, row 0
+/// at the bottom) on every core. The calling thread asks `stop` about every
+/// 10 ms while the workers march (each ray checks for a stop every 1024
+/// steps), so a frame of any length can be interrupted. Needs `available()`.
+pub fn render(frame: &Frame, out: &mut [[f32; 4]], stop: &mut dyn FnMut() -> bool) -> Result<Stats, Interrupted> {
+    let p = frame.params;
+    let (w, h) = (p.width as usize, p.height as usize);
+    assert_eq!(out.len(), w * h, "output size");
+    assert!(available(), "the native march needs AVX2 and FMA");
+    assert!(p.max_steps <= MAX_STEPS, "the native march takes at most {MAX_STEPS} steps a ray");
+    if let Some((codes, dims)) = frame.empty_radius {
+        assert!(codes.len() >= dims.iter().product::<usize>() + 3, "occupancy codes need 3 bytes of padding");
+    }
+    if let Texels::R16Snorm(t) = &frame.volume.texels {
+        assert!(t.len() > frame.volume.dims.iter().product::<usize>(), "16-bit codes need one of padding");
+    }
+    let tiles_x = w.div_ceil(TILE);
+    let tiles = tiles_x * h.div_ceil(TILE);
+    let next = AtomicUsize::new(0);
+    let halt = AtomicBool::new(false);
+    let image = Image(out.as_mut_ptr());
+    let work = || -> Stats {
+        let mut stats = Stats::default();
+        loop {
+            let tile = next.fetch_add(1, Ordering::Relaxed);
+            if tile >= tiles || halt.load(Ordering::Relaxed) {
+                return stats;
+            }
+            let (x0, y0) = ((tile % tiles_x) * TILE, (tile / tiles_x) * TILE);
+            for row in y0..(y0 + TILE).min(h) {
+                let mut rgba = [[0f32; 4]; TILE];
+                let s = march_row(frame, x0 as u32, row as u32, &mut rgba, &halt);
+                stats.samples += s.samples;
+                stats.truncated_needed = stats.truncated_needed.max(s.truncated_needed);
+                for (l, c) in rgba.into_iter().enumerate().take(w - x0) {
+                    // SAFETY: each pixel lies in one tile, taken by one worker.
+                    unsafe { image.write(row * w + x0 + l, c) };
+                }
+            }
+        }
+    };
+    let threads = std::thread::available_parallelism().map_or(1, |t| t.get()).min(tiles.max(1));
+    let caller = std::thread::current();
+    let stats = std::thread::scope(|s| {
+        let workers: Vec<_> = (0..threads)
+            .map(|_| {
+                s.spawn(|| {
+                    let stats = work();
+                    caller.unpark();
+                    stats
+                })
+            })
+            .collect();
+        while !workers.iter().all(|t| t.is_finished()) {
+            if stop() {
+                halt.store(true, Ordering::Relaxed);
+            }
+            std::thread::park_timeout(std::time::Duration::from_millis(10));
+        }
+        workers.into_iter().map(|t| t.join().unwrap_or_default()).fold(Stats::default(), |a, b| Stats {
+            samples: a.samples + b.samples,
+            truncated_needed: a.truncated_needed.max(b.truncated_needed),
+        })
+    });
+    if halt.load(Ordering::Relaxed) {
+        return Err(Interrupted);
+    }
+    Ok(stats)
+}
+
+/// The most steps a ray of the native march takes: its lanes count steps
+/// in 32-bit signed integers.
+pub const MAX_STEPS: u32 = 1 << 30;
+
+/// Eight pixels of one row from column `col0` (those past the image's
+/// right edge are left transparent).
+fn march_row(frame: &Frame, col0: u32, row: u32, out: &mut [[f32; 4]; TILE], halt: &AtomicBool) -> Stats {
+    let rays: [Option<Ray>; TILE] = std::array::from_fn(|l| {
+        let col = col0 + l as u32;
+        (col < frame.params.width).then(|| Ray::new(frame, col, row)).flatten()
+    });
+    #[cfg(target_arch = "x86_64")]
+    {
+        // SAFETY: `render` checked AVX2 and FMA and the paddings.
+        unsafe {
+            match &frame.volume.texels {
+                Texels::Rgba32Float(t) => avx2::march(frame, &avx2::Rgba32Float(t), &rays, out, halt),
+                Texels::Rgba16Snorm(t) => avx2::march(frame, &avx2::Rgba16Snorm(t), &rays, out, halt),
+                Texels::R32Float(t) => avx2::march(frame, &avx2::R32Float(t), &rays, out, halt),
+                Texels::R16Snorm(t) => avx2::march(frame, &avx2::R16Snorm(t), &rays, out, halt),
+            }
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let _ = (rays, out, halt);
+        unreachable!("available() is false off x86-64")
+    }
+}
+
+/// One pixel's ray as main.wgsl builds it: its chord through the (cropped)
+/// box, segment grid and step count, and the window of segments whose
+/// midpoints may lie in occupied cells (skipping.wgsl `occupied_window`).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Ray {
+    pub d: [f32; 3],
+    pub t0: f32,
+    pub chord: f32,
+    pub shift: f32,
+    pub n: u32,
+    pub needed: u32,
+    /// Segments [window.0, window.1) are marched.
+    pub window: (u32, u32),
+}
+
+impl Ray {
+    fn new(frame: &Frame, col: u32, row: u32) -> Option<Ray> {
+        let p = frame.params;
+        let ndc = [2.0 * (col as f32 + 0.5) / p.width as f32 - 1.0, 2.0 * (row as f32 + 0.5) / p.height as f32 - 1.0];
+        let mut d = [0f32; 3];
+        for a in 0..3 {
+            d[a] = p.cam_fwd[a] + ndc[0] * p.cam_right[a] + ndc[1] * p.cam_up[a];
+        }
+        let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        d = d.map(|c| c / l);
+        let o = &p.cam_pos;
+        let (mut t0, mut t1) = (-3.0e38f32, 3.0e38f32);
+        for a in 0..3 {
+            if d[a] == 0.0 {
+                if o[a] < p.clip_lo[a] || o[a] > p.clip_hi[a] {
+                    return None;
+                }
+            } else {
+                let inv = 1.0 / d[a];
+                let (ta, tb) = ((p.clip_lo[a] - o[a]) * inv, (p.clip_hi[a] - o[a]) * inv);
+                t0 = t0.max(ta.min(tb));
+                t1 = t1.min(ta.max(tb));
+            }
+        }
+        if t0 > t1 || t1 <= 0.0 {
+            return None;
+        }
+        let t0 = t0.max(0.0);
+        let chord = t1 - t0;
+        let shift = if frame.jitter { crate::model::jitter_shift(col, row, p.jitter_seed) } else { 0.0 };
+        let needed = (chord / p.step_size - shift).ceil().min(4.0e9) as u32;
+        let n = needed.min(p.max_steps);
+        let mut ray = Ray { d, t0, chord, shift, n, needed, window: (0, n) };
+        if frame.empty_radius.is_some() {
+            ray.window = ray.occupied_window(frame);
+        }
+        Some(ray)
+    }
+
+    /// skipping.wgsl `occupied_window`, in numpy axis order.
+    fn occupied_window(&self, frame: &Frame) -> (u32, u32) {
+        let p = frame.params;
+        if p.bricked == 1 || p.occupied_hi[3] != 1.0 {
+            return (0, self.n);
+        }
+        let dims = frame.volume.dims;
+        let mut a = 0f32;
+        let mut b = self.chord;
+        for k in 0..3 {
+            // The block's boxes are in texture axis order: numpy axis k is texture axis 2 - k.
+            let (lo, hi) = (p.occupied_lo[2 - k], p.occupied_hi[2 - k]);
+            let tc = (p.cam_pos[k] + self.d[k] * self.t0) * p.tex_scale[k] + p.tex_offset[k];
+            let u0 = tc * dims[k] as f32 - p.border as f32;
+            let du = self.d[k] * p.tex_scale[k] * dims[k] as f32;
+            if du == 0.0 {
+                if u0 < lo || u0 > hi {
+                    return (0, 0);
+                }
+            } else {
+                let (ta, tb) = ((lo - u0) / du, (hi - u0) / du);
+                a = a.max(ta.min(tb));
+                b = b.min(ta.max(tb));
+            }
+        }
+        if !(b >= a) {
+            return (0, 0);
+        }
+        let h = p.step_size;
+        let n = self.n as f32;
+        let mut lo = (a / h - 0.5 - self.shift - 1e-3).ceil().clamp(0.0, n) as u32;
+        let mut hi = ((b / h - 0.5 - self.shift + 1e-3).floor() + 1.0).clamp(0.0, n) as u32;
+        if lo <= 1 {
+            lo = 0;
+        }
+        if hi + 1 >= self.n {
+            hi = self.n;
+        }
+        (lo, hi)
+    }
+}
+
+/// Occupancy cells a side, in voxels (as the shader's CELL).
+pub(crate) const CELL: f32 = BLOCK as f32;

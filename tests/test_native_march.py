@@ -1,0 +1,174 @@
+"""The native CPU march renders what the shader renders.
+
+Where wgpu's only adapter is a CPU, the frames the native march covers
+(src/cpu: emission-absorption front to back at the midpoint, exponential
+opacity correction, unlit or lit from the texels' normals or gradients, one
+texture) are its, not the shader's. Each case renders one frame both ways
+(``native_march`` on and off) and compares the premultiplied images and
+what the frames took. Both run the same rule in f32; they differ in the
+order of sums, fused multiply-adds and the exponential (relative error
+~2e-7), and a ray that reaches the early-termination threshold within
+that rounding stops one sample apart: 0.11 level, measured, at one pixel
+of the 512x512 benchmark frame. So the bound is 0.25 level at any pixel,
+0.002 on average, and the sample counts agree to 1e-4 (the same segments
+and leaps; one skipped or repeated cell of 8 voxels would cost whole
+levels or change the counts by far more).
+"""
+
+import numpy as np
+import pytest
+
+from pyvr import RenderConfig, VolumeRenderer
+from pyvr.camera import Camera
+from pyvr.datasets import compute_normal_volume, create_sample_volume
+from pyvr.lighting import Light
+from pyvr.renderer import device_limits
+from pyvr.transferfunctions import ColorTransferFunction, OpacityTransferFunction
+from pyvr.volume import Volume
+
+pytestmark = pytest.mark.skipif(not device_limits()["native_march"],
+                                reason="the native march runs only where the adapter is a CPU with AVX2 and FMA")
+
+LEVEL = 1 / 255
+BOX = (np.array([-1.0, -0.8, -0.6], np.float32), np.array([1.0, 0.8, 0.6], np.float32))
+
+
+def sphere_pair(n=40):
+    d = create_sample_volume(n, "double_sphere").astype(np.float32)
+    return np.ascontiguousarray(d[:, : n - 6, : n - 10])
+
+
+def scene(kind):
+    """(volume, precision, light, opacity TF) of each storage the march reads."""
+    d = sphere_pair()
+    ramp = OpacityTransferFunction.linear(0.0, 0.4)
+    lit = Light.directional([-0.6, -0.3, -0.8], ambient=0.25, diffuse=0.75)
+    if kind == "normals_fixed16":
+        return Volume(d, compute_normal_volume(d), *BOX), "fixed16", lit, ramp
+    if kind == "normals_float32":
+        return Volume(d, compute_normal_volume(d), *BOX), "float32", lit, ramp
+    if kind == "gradients":
+        return Volume(d, None, *BOX), "float32", lit, ramp
+    if kind == "values_float32":
+        return Volume(d, None, *BOX), "float32", Light.ambient_only(0.9), ramp
+    if kind == "values_fixed16":
+        return Volume(d, None, *BOX), "fixed16", Light.ambient_only(0.9), ramp
+    if kind == "nan":
+        d = d.copy()
+        d[10:14, 12:15, 5:20] = np.nan
+        return Volume(d, None, *BOX), "float32", Light.ambient_only(0.9), ramp
+    raise ValueError(kind)
+
+
+KINDS = ["normals_fixed16", "normals_float32", "gradients", "values_float32", "values_fixed16", "nan"]
+OUTSIDE = Camera.from_spherical(np.zeros(3), 0.7, 0.4, 0.0, 3.0)
+INSIDE = Camera(target=np.array([-0.6, 0.2, 0.1]), azimuth=0.3, elevation=0.2, roll=0.0, distance=0.5)
+
+
+def renderer(kind, config=None, size=(72, 64)):
+    vol, precision, light, otf = scene(kind)
+    r = VolumeRenderer(*size, config=config or RenderConfig.balanced(), light=light)
+    r.load_volume(vol, precision=precision)
+    r.set_transfer_functions(ColorTransferFunction.from_colormap("viridis"), otf)
+    r.set_camera(OUTSIDE)
+    r.native_march = True  # whatever PYVR_NATIVE_MARCH says
+    return r
+
+
+def both(r, config=None):
+    """The frame from the native march and from the shader, with their stats."""
+    out = []
+    for native in (True, False):
+        r.native_march = native
+        img = r.render(dtype=np.float32, premultiplied=True, config=config)
+        out.append((img, dict(r.last_frame_stats)))
+    r.native_march = True
+    return out
+
+
+def assert_same(native, shader, what):
+    (a, sa), (b, sb) = native, shader
+    assert sa["engine"] == "native" and sb["engine"] == "gpu", what
+    assert a[..., 3].max() > 0.05, f"{what}: the scene must show something"
+    diff = np.abs(a - b)
+    assert diff.max() < 0.25 * LEVEL, f"{what}: max difference {diff.max() / LEVEL:.4f} levels"
+    assert diff.mean() < 0.002 * LEVEL, f"{what}: mean difference {diff.mean() / LEVEL:.5f} levels"
+    assert abs(sa["samples"] - sb["samples"]) <= 1e-4 * sb["samples"] + 2, f"{what}: samples {sa} vs {sb}"
+    assert sa["truncated_needed"] == sb["truncated_needed"], what
+
+
+CONFIGS = {
+    "balanced": {},
+    "jitter": {"jitter": True, "jitter_seed": 7},
+    "no_early_stop": {"early_ray_termination": False},
+    "low_threshold": {"opacity_threshold": 0.3},
+    "long_steps": {"step_size": 0.05},
+    # max_steps cuts every ray short: the frame reports the steps they needed.
+    "truncated": {"step_size": 0.01, "max_steps": 60},
+}
+
+
+@pytest.mark.parametrize("kind", KINDS)
+@pytest.mark.parametrize("name", sorted(CONFIGS))
+def test_native_march_matches_the_shader(kind, name):
+    r = renderer(kind)
+    cfg = RenderConfig.balanced().replace(**CONFIGS[name])
+    for cam in (OUTSIDE, INSIDE):
+        r.set_camera(cam)
+        native, shader = both(r, cfg)
+        if cam is OUTSIDE:
+            assert_same(native, shader, f"{kind}, {name}, outside")
+        else:
+            (a, sa), (b, sb) = native, shader
+            assert np.abs(a - b).max() < 0.25 * LEVEL, f"{kind}, {name}, inside"
+    if name == "truncated":
+        assert shader[1]["truncated_needed"] > 60
+
+
+@pytest.mark.parametrize("kind", ["normals_fixed16", "values_float32"])
+def test_skipping_crop_and_value_range_in_the_native_march(kind):
+    r = renderer(kind)
+    # Most cells empty: a narrow opacity band, so rays leap.
+    r.set_transfer_functions(ColorTransferFunction.from_colormap("plasma"),
+                             OpacityTransferFunction.peaks([0.6], opacity=0.7, eps=0.08))
+    native, shader = both(r)
+    assert_same(native, shader, "narrow band")
+    assert r.empty_fraction() > 0.5
+    r.empty_space_skipping = False
+    unskipped, _ = both(r)
+    r.empty_space_skipping = True
+    assert np.abs(unskipped[0] - native[0]).max() < 0.25 * LEVEL
+    assert native[1]["samples"] < 0.8 * unskipped[1]["samples"]
+    r.set_crop_box([-0.5, -0.8, -0.2], [0.6, 0.3, 0.6])
+    assert_same(*both(r), "cropped")
+    r.set_crop_box()
+    r.set_transfer_functions(ColorTransferFunction.from_colormap("plasma"), OpacityTransferFunction.linear(0.0, 0.5),
+                             value_range=(0.2, 0.9))
+    assert_same(*both(r), "value range")
+
+
+@pytest.mark.parametrize("changes, light", [
+    ({"pre_integrated": True}, None),
+    ({"order": "back_to_front"}, None),
+    ({"opacity_correction": "power"}, None),
+    ({"model": "mip"}, None),
+    ({"model": "absorption"}, None),
+    ({}, Light.point_light([2.0, 2.0, 2.0])),
+])
+def test_frames_the_native_march_does_not_cover_stay_on_the_shader(changes, light):
+    r = renderer("normals_fixed16")
+    if light is not None:
+        r.set_light(light)
+    r.render(config=RenderConfig.balanced().replace(**changes))
+    assert r.last_frame_stats["engine"] == "gpu"
+    r.render()
+    assert r.last_frame_stats["engine"] == ("gpu" if light is not None else "native")
+
+
+def test_native_march_off_keeps_frames_on_the_shader():
+    r = renderer("normals_fixed16")
+    r.render()
+    assert r.last_frame_stats["engine"] == "native"
+    r.native_march = False
+    r.render()
+    assert r.last_frame_stats["engine"] == "gpu"
