@@ -1,7 +1,7 @@
-"""Would a native CPU march beat lavapipe? Runs the Rust measurement
-(benches/native_march.rs: the balanced benchmark frame on the GPU path and
-on two native marches of the same rule, in one run) and writes its rows as
-out/native_march.json for docs/speed.md.
+"""The native CPU march against the shader: runs the Rust measurement
+(benches/native_march.rs: the balanced benchmark frame, its volume as
+float32 and as fixed16, by the shader and by the native march in turn, in
+one run) and writes its rows as out/native_march.json for docs/speed.md.
 
 Run: .venv/bin/python benches/native_march.py [size] [n]   (default 512 256; needs cargo)
 """
@@ -30,10 +30,12 @@ def main():
     size, n = (args + ["512", "256"][len(args):])[:2]
     write_table(
         "native_march", "benches/native_march.py",
-        ["engine", "ms", "samples (M)", "ns per sample", "lavapipe's ns over this engine's", "max difference from the GPU image (levels)"],
+        ["storage", "engine", "ms", "samples (M)", "ns per sample", "the shader's ns over this engine's",
+         "max difference from the shader's image (levels)"],
         result["rows"], device=result["device"],
-        note=f"{size}x{size}, {n}^3 double sphere with normals, balanced, every core; median of 3 after a warm-up. "
-             "scalar: one ray at a time; avx2: eight rays in a register's lanes, texels gathered.",
+        note=f"{size}x{size}, {n}^3 double sphere with normals, balanced, empty-space skipping, every core; "
+             "median of 3 after a warm-up. shader: the WGSL march on the adapter wgpu picked; native: the "
+             "AVX2 march of src/cpu (eight rays in a register's lanes).",
     )
 
 

@@ -75,6 +75,8 @@ def main():
 
     print(f"device: {renderer.device}")
     print(f"volume stored as: {renderer.counters()['volume_storage']} (precision {renderer.precision!r})")
+    engine = renderer.last_frame_stats.get("engine")
+    print(f"frames marched by: {'the native CPU march' if engine == 'native' else 'the shader'} ({engine})")
     print(f"{'preset':14s} {'step':>6s} {'max_steps':>9s} {'setup ms':>9s} {'first ms':>9s} "
           f"{'median ms':>10s} {'mean±std ms':>14s} {'FPS':>6s}  note")
     for name, cfg, setup_ms, first_ms, times, truncated in rows:
