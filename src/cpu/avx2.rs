@@ -2,7 +2,7 @@
 //! segment index, leaping or compositing as the shader's invocation would,
 //! until every lane's ray is done.
 
-use super::{Frame, Ray, Stats, CELL, TILE};
+use super::{Frame, Model, Ray, Stats, CELL, TILE};
 use std::arch::x86_64::*;
 use std::sync::atomic::{AtomicBool, Ordering};
 
@@ -250,6 +250,46 @@ pub unsafe fn march<T: Texels>(
     let (mut color, mut color_b) = ([zero; 3], [zero; 3]);
     let (mut tau, mut tau_b, mut trans) = (zero, zero, one);
     let (mut taken, mut blocks) = (zi, zi);
+    let emission = f.model == Model::Emission;
+    let emits = f.model != Model::Absorption;
+    // Pre-integration carries each boundary's value and light from the
+    // segment that fetched it to the next (compositing.wgsl
+    // `preintegrated_segment`): the boundary index (-1: none), value, light.
+    let (mut carry_at, mut carry_v, mut carry_light) = (_mm256_set1_epi32(-1), zero, zero);
+    let lut_entry = |v: __m256| -> [__m256; 4] {
+        let xl = _mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(v, zero), one), lut_scale);
+        let k = _mm256_min_epi32(_mm256_cvttps_epi32(xl), lut_last);
+        let t = _mm256_sub_ps(xl, _mm256_cvtepi32_ps(k));
+        let k4 = _mm256_slli_epi32::<2>(k);
+        std::array::from_fn(|c| {
+            let at = _mm256_add_epi32(k4, _mm256_set1_epi32(c as i32));
+            // SAFETY: k <= M - 2, so both entries lie in the table.
+            let (e0, e1) = unsafe {
+                (_mm256_i32gather_ps::<4>(lut, at), _mm256_i32gather_ps::<4>(lut, _mm256_add_epi32(at, _mm256_set1_epi32(4))))
+            };
+            lerp(e0, e1, t)
+        })
+    };
+    // The table's bilinear entry for (front, back) values, as the sampler reads it.
+    let table_entry = |vf: __m256, vb: __m256, t: &super::PreintTable| -> [__m256; 4] {
+        let scale = _mm256_set1_ps((t.side - 1) as f32);
+        let x = _mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(vf, zero), one), scale);
+        let y = _mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(vb, zero), one), scale);
+        let (x0, y0) = (_mm256_floor_ps(x), _mm256_floor_ps(y));
+        let (fx, fy) = (_mm256_sub_ps(x, x0), _mm256_sub_ps(y, y0));
+        let (x0, y0) = (_mm256_cvttps_epi32(x0), _mm256_cvttps_epi32(y0));
+        let x1 = _mm256_min_epi32(_mm256_add_epi32(x0, onei), _mm256_set1_epi32(t.width as i32 - 1));
+        let y1 = _mm256_add_epi32(y0, onei);
+        let row = _mm256_set1_epi32(4 * t.width as i32);
+        let base = t.texels.as_ptr() as *const f32;
+        let corner = |xi: __m256i, yi: __m256i| -> [__m256; 4] {
+            let at = _mm256_add_epi32(_mm256_mullo_epi32(yi, row), _mm256_slli_epi32::<2>(xi));
+            // SAFETY: x < width and y <= side, inside the side + 2 rows.
+            std::array::from_fn(|c| unsafe { _mm256_i32gather_ps::<4>(base.add(c), at) })
+        };
+        let (a, b, c, d) = (corner(x0, y0), corner(x1, y0), corner(x0, y1), corner(x1, y1));
+        std::array::from_fn(|k| lerp(lerp(a[k], b[k], fx), lerp(c[k], d[k], fx), fy))
+    };
     let mut steps = 0u32;
     while _mm256_movemask_ps(active) != 0 {
         steps = steps.wrapping_add(1);
@@ -263,7 +303,17 @@ pub unsafe fn march<T: Texels>(
         let start_at = _mm256_andnot_ps(before, a);
         let seg = _mm256_blendv_ps(_mm256_max_ps(_mm256_min_ps(h, _mm256_sub_ps(chord, a)), zero), first_len, before);
         let mid = _mm256_fmadd_ps(seg, _mm256_set1_ps(0.5), start_at);
-        let u: [__m256; 3] = std::array::from_fn(|k| _mm256_fmadd_ps(per[k], mid, start[k]));
+        // A full pre-integrated segment fetches its far boundary, or first
+        // its near one when that is not carried (`primes`: marched again).
+        let (mut carried, mut primes, mut at) = (zero, zero, mid);
+        let full = _mm256_cmp_ps::<_CMP_EQ_OQ>(seg, h);
+        if f.preint.is_some() {
+            carried = _mm256_and_ps(full, as_ps(_mm256_cmpeq_epi32(carry_at, i)));
+            primes = _mm256_andnot_ps(carried, full);
+            at = _mm256_blendv_ps(_mm256_blendv_ps(mid, start_at, primes), _mm256_add_ps(start_at, h), carried);
+        }
+        let coords = |at: __m256| -> [__m256; 3] { std::array::from_fn(|k| _mm256_fmadd_ps(per[k], at, start[k])) };
+        let u = coords(at);
         let mut w = [zero; 3];
         let mut offs = [[zi; 2]; 3];
         for k in 0..3 {
@@ -277,29 +327,74 @@ pub unsafe fn march<T: Texels>(
             ];
         }
         let texel = tex.trilinear(&offs, &w);
-        // The table's entry (sampling.wgsl `eval_lut`); NaN reads as opacity 0.
+        // NaN reads as value 0 and opacity 0.
         let v = _mm256_fmadd_ps(texel[0], value_scale, value_offset);
         let valid = _mm256_cmp_ps::<_CMP_ORD_Q>(v, v);
-        let xl = _mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(_mm256_and_ps(v, valid), zero), one), lut_scale);
-        let k = _mm256_min_epi32(_mm256_cvttps_epi32(xl), lut_last);
-        let t = _mm256_sub_ps(xl, _mm256_cvtepi32_ps(k));
-        let k4 = _mm256_slli_epi32::<2>(k);
-        let rgba: [__m256; 4] = std::array::from_fn(|c| {
-            let at = _mm256_add_epi32(k4, _mm256_set1_epi32(c as i32));
-            let e0 = _mm256_i32gather_ps::<4>(lut, at);
-            let e1 = _mm256_i32gather_ps::<4>(lut, _mm256_add_epi32(at, _mm256_set1_epi32(4)));
-            lerp(e0, e1, t)
-        });
-        let sigma = _mm256_and_ps(rgba[3], valid);
-        let seen = _mm256_and_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(sigma, zero), _mm256_cmp_ps::<_CMP_GT_OQ>(seg, zero));
-        let x = _mm256_and_ps(_mm256_min_ps(_mm256_mul_ps(sigma, _mm256_mul_ps(seg, seg_unit)), _mm256_set1_ps(1.0e30)), seen);
+        let mut light = ambient;
+        if directional {
+            let mag = _mm256_max_ps(_mm256_max_ps(abs(texel[1]), abs(texel[2])), abs(texel[3]));
+            let lit = _mm256_cmp_ps::<_CMP_GT_OQ>(mag, zero);
+            let inv = _mm256_div_ps(one, _mm256_blendv_ps(one, mag, lit));
+            let nrm: [__m256; 3] = std::array::from_fn(|c| _mm256_mul_ps(texel[c + 1], inv));
+            let len = _mm256_sqrt_ps(_mm256_fmadd_ps(nrm[0], nrm[0], _mm256_fmadd_ps(nrm[1], nrm[1], _mm256_mul_ps(nrm[2], nrm[2]))));
+            let dot = _mm256_fmadd_ps(nrm[0], light_dir[0], _mm256_fmadd_ps(nrm[1], light_dir[1], _mm256_mul_ps(nrm[2], light_dir[2])));
+            let cos = _mm256_max_ps(_mm256_div_ps(dot, _mm256_blendv_ps(one, len, lit)), zero);
+            light = _mm256_blendv_ps(ambient, _mm256_fmadd_ps(diffuse, cos, ambient), lit);
+        }
+        // The midpoint rule (every segment of a plain frame, the shorter
+        // end segments of a pre-integrated one): optical depth and colour.
+        let midpoint = |x_only: bool| -> (__m256, [__m256; 3]) {
+            let rgba = lut_entry(_mm256_and_ps(v, valid));
+            let sigma = _mm256_and_ps(rgba[3], valid);
+            let seen = _mm256_and_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(sigma, zero), _mm256_cmp_ps::<_CMP_GT_OQ>(seg, zero));
+            let x = _mm256_and_ps(_mm256_min_ps(_mm256_mul_ps(sigma, _mm256_mul_ps(seg, seg_unit)), _mm256_set1_ps(1.0e30)), seen);
+            if x_only || !emits {
+                return (x, [zero; 3]);
+            }
+            let k = if emission { x } else { one_minus_exp_neg(x) };
+            let k = _mm256_mul_ps(k, light);
+            (x, std::array::from_fn(|c| _mm256_mul_ps(k, rgba[c])))
+        };
+        let (x, add) = match f.preint {
+            None => midpoint(false),
+            Some(table) => {
+                let (held_v, held_light) = (carry_v, carry_light);
+                let boundary = _mm256_blendv_ps(
+                    _mm256_blendv_ps(as_ps(_mm256_set1_epi32(-1)), as_ps(i), primes),
+                    as_ps(_mm256_add_epi32(i, onei)),
+                    carried,
+                );
+                carry_at = _mm256_castps_si256(_mm256_blendv_ps(as_ps(carry_at), boundary, active));
+                carry_v = _mm256_blendv_ps(carry_v, v, active);
+                carry_light = _mm256_blendv_ps(carry_light, light, active);
+                let known = _mm256_and_ps(_mm256_cmp_ps::<_CMP_ORD_Q>(held_v, held_v), valid);
+                let whole = _mm256_and_ps(_mm256_and_ps(carried, known), active);
+                let mut x = zero;
+                let mut add = [zero; 3];
+                if _mm256_movemask_ps(whole) != 0 {
+                    let e = table_entry(_mm256_and_ps(held_v, known), _mm256_and_ps(v, known), table);
+                    let k = _mm256_mul_ps(_mm256_set1_ps(0.5), _mm256_add_ps(held_light, light));
+                    x = _mm256_and_ps(e[3], whole);
+                    add = std::array::from_fn(|c| _mm256_and_ps(_mm256_mul_ps(e[c], k), whole));
+                }
+                let short = _mm256_andnot_ps(full, active);
+                if _mm256_movemask_ps(short) != 0 {
+                    let (xs, adds) = midpoint(false);
+                    x = _mm256_blendv_ps(x, xs, short);
+                    add = std::array::from_fn(|c| _mm256_blendv_ps(add[c], adds[c], short));
+                }
+                (x, add)
+            }
+        };
         let empty = _mm256_cmp_ps::<_CMP_NGT_UQ>(x, zero);
 
-        // Leaps (compositing.wgsl `cube_leap`, skipping.wgsl `cube_exit`).
+        // Leaps (compositing.wgsl `cube_leap`, skipping.wgsl `cube_exit`),
+        // from the segment's midpoint.
         let mut leap = zero;
         let mut next = i;
         if !radius_grid.is_null() && _mm256_movemask_ps(_mm256_and_ps(empty, active)) != 0 {
-            let uc: [__m256; 3] = std::array::from_fn(|k| _mm256_add_ps(u[k], border));
+            let um = if f.preint.is_some() { coords(mid) } else { u };
+            let uc: [__m256; 3] = std::array::from_fn(|k| _mm256_add_ps(um[k], border));
             let c: [__m256i; 3] = std::array::from_fn(|k| {
                 let ci = _mm256_cvttps_epi32(_mm256_floor_ps(_mm256_mul_ps(uc[k], cell)));
                 _mm256_min_epi32(_mm256_max_epi32(ci, zi), grid_hi[k])
@@ -331,27 +426,15 @@ pub unsafe fn march<T: Texels>(
             let kf = _mm256_min_ps(_mm256_max_ps(kf, lowest), _mm256_cvtepi32_ps(n));
             next = _mm256_cvttps_epi32(kf);
         }
-
-        let blend = _mm256_andnot_ps(leap, active);
-        let mut light = ambient;
-        if directional {
-            let mag = _mm256_max_ps(
-                _mm256_max_ps(abs(texel[1]), abs(texel[2])),
-                abs(texel[3]),
-            );
-            let lit = _mm256_cmp_ps::<_CMP_GT_OQ>(mag, zero);
-            let inv = _mm256_div_ps(one, _mm256_blendv_ps(one, mag, lit));
-            let nrm: [__m256; 3] = std::array::from_fn(|c| _mm256_mul_ps(texel[c + 1], inv));
-            let len = _mm256_sqrt_ps(_mm256_fmadd_ps(nrm[0], nrm[0], _mm256_fmadd_ps(nrm[1], nrm[1], _mm256_mul_ps(nrm[2], nrm[2]))));
-            let dot = _mm256_fmadd_ps(nrm[0], light_dir[0], _mm256_fmadd_ps(nrm[1], light_dir[1], _mm256_mul_ps(nrm[2], light_dir[2])));
-            let cos = _mm256_max_ps(_mm256_div_ps(dot, _mm256_blendv_ps(one, len, lit)), zero);
-            light = _mm256_blendv_ps(ambient, _mm256_fmadd_ps(diffuse, cos, ambient), lit);
-        }
-        let weight = _mm256_and_ps(_mm256_mul_ps(_mm256_mul_ps(trans, one_minus_exp_neg(x)), light), blend);
+        // A priming segment that does not leap is marched again, now carried.
+        let again = _mm256_andnot_ps(leap, primes);
+        let blend = _mm256_andnot_ps(_mm256_or_ps(leap, again), active);
         for c in 0..3 {
-            color_b[c] = _mm256_fmadd_ps(weight, rgba[c], color_b[c]);
+            color_b[c] = _mm256_fmadd_ps(_mm256_and_ps(trans, blend), add[c], color_b[c]);
         }
-        tau_b = _mm256_add_ps(tau_b, _mm256_and_ps(x, blend));
+        if !emission {
+            tau_b = _mm256_add_ps(tau_b, _mm256_and_ps(x, blend));
+        }
         // Partial sums of 2^8 samples folded into the totals.
         let block = _mm256_srli_epi32::<8>(taken);
         let fold = _mm256_and_ps(blend, _mm256_xor_ps(as_ps(_mm256_cmpeq_epi32(block, blocks)), as_ps(_mm256_set1_epi32(-1))));
@@ -364,18 +447,20 @@ pub unsafe fn march<T: Texels>(
             tau = _mm256_add_ps(tau, _mm256_and_ps(tau_b, fold));
             tau_b = _mm256_andnot_ps(fold, tau_b);
         }
-        let total = _mm256_add_ps(tau, tau_b);
-        trans = _mm256_blendv_ps(trans, exp_nonpositive(_mm256_sub_ps(zero, total)), blend);
-        let mut stop = zero;
-        if f.early_termination {
-            stop = _mm256_and_ps(
-                _mm256_cmp_ps::<_CMP_GT_OQ>(total, zero),
-                _mm256_cmp_ps::<_CMP_GE_OQ>(_mm256_sub_ps(one, trans), threshold),
-            );
+        if !emission {
+            let total = _mm256_add_ps(tau, tau_b);
+            trans = _mm256_blendv_ps(trans, exp_nonpositive(_mm256_sub_ps(zero, total)), blend);
+            let mut stop = zero;
+            if f.early_termination {
+                stop = _mm256_and_ps(
+                    _mm256_cmp_ps::<_CMP_GT_OQ>(total, zero),
+                    _mm256_cmp_ps::<_CMP_GE_OQ>(_mm256_sub_ps(one, trans), threshold),
+                );
+            }
+            let faded = _mm256_and_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(trans, _mm256_set1_ps(1e-30)), blend);
+            trans = _mm256_andnot_ps(faded, trans);
+            stopped = _mm256_or_ps(stopped, _mm256_and_ps(_mm256_or_ps(stop, faded), blend));
         }
-        let faded = _mm256_and_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(trans, _mm256_set1_ps(1e-30)), blend);
-        trans = _mm256_andnot_ps(faded, trans);
-        stopped = _mm256_or_ps(stopped, _mm256_and_ps(_mm256_or_ps(stop, faded), blend));
         i = _mm256_castps_si256(_mm256_blendv_ps(
             as_ps(_mm256_add_epi32(i, _mm256_and_si256(_mm256_castps_si256(blend), onei))),
             as_ps(next),
@@ -405,7 +490,9 @@ pub unsafe fn march<T: Texels>(
             stats.truncated_needed = stats.truncated_needed.max(r.needed);
         }
         let tau = lanes_out[3][l];
-        let alpha = if lanes_out[4][l] == 0.0 {
+        let alpha = if emission {
+            0.0
+        } else if lanes_out[4][l] == 0.0 {
             1.0
         } else if tau < 1e-3 {
             tau * (1.0 - tau * (0.5 - tau * (1.0 / 6.0)))

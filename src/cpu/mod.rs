@@ -7,11 +7,12 @@
 //! and early termination) with eight rays in the lanes of AVX2 registers on
 //! every core, reading each 16-bit fixed-point texel (value and normal) in
 //! one 64-bit gather. It covers the frames most CPU-only users render:
-//! emission–absorption marched front to back at the midpoint, exponential
-//! opacity correction, no light or a directional one lighting from normals
-//! held in the texels, with or without jitter, from a volume held in one
-//! texture. Everything else stays on the GPU path, whose images these
-//! match (tests/test_native_march.py).
+//! emission–absorption (plain or pre-integrated), absorption and emission
+//! marched front to back, exponential opacity correction, no light or a
+//! directional one lighting from normals held in the texels, with or
+//! without jitter, from a volume held in one texture. Everything else
+//! stays on the GPU path, whose images these match
+//! (tests/test_native_march.py).
 
 #[cfg(target_arch = "x86_64")]
 mod avx2;
@@ -56,6 +57,26 @@ impl CpuVolume {
     }
 }
 
+/// The pre-integration texture's texels (`gpu::resources::with_lut_row`):
+/// `side` rows of the (front, back) table, each `width` entries (optical
+/// depth in alpha, emitted colour), then two more rows.
+#[derive(Clone, Debug, Default)]
+pub struct PreintTable {
+    pub texels: Vec<[f32; 4]>,
+    pub width: usize,
+    pub side: usize,
+}
+
+/// The optical models the native march runs (compositing.wgsl).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Model {
+    EmissionAbsorption,
+    /// Optical depth alone: no colour.
+    Absorption,
+    /// Colour alone, added along the ray; alpha 0.
+    Emission,
+}
+
 /// One frame of the native march.
 pub struct Frame<'a> {
     /// The uniform block the shader would read (one pass, not bricked).
@@ -71,6 +92,10 @@ pub struct Frame<'a> {
     pub lit: bool,
     pub early_termination: bool,
     pub jitter: bool,
+    pub model: Model,
+    /// Full segments take their (front, back) entry of this table (an
+    /// emission-absorption frame's); None: the midpoint rule.
+    pub preint: Option<&'a PreintTable>,
 }
 
 /// What a native frame took.
@@ -128,6 +153,10 @@ pub fn render(frame: &Frame, out: &mut [[f32; 4]], stop: &mut dyn FnMut() -> boo
     if let Some((codes, dims)) = frame.empty_radius {
         assert!(codes.len() >= dims.iter().product::<usize>() + 3, "occupancy codes need 3 bytes of padding");
     }
+    if let Some(t) = frame.preint {
+        assert!(t.side >= 2 && t.width >= t.side && t.texels.len() >= t.width * (t.side + 2), "pre-integration table");
+        assert_eq!(frame.model, Model::EmissionAbsorption, "pre-integration tables are emission-absorption's");
+    }
     if let Texels::R16Snorm(t) = &frame.volume.texels {
         assert!(t.len() > frame.volume.dims.iter().product::<usize>(), "16-bit codes need one of padding");
     }
@@ -158,17 +187,21 @@ pub fn render(frame: &Frame, out: &mut [[f32; 4]], stop: &mut dyn FnMut() -> boo
     };
     let threads = std::thread::available_parallelism().map_or(1, |t| t.get()).min(tiles.max(1));
     let caller = std::thread::current();
+    // Counted before each worker wakes the caller, so that a wake-up is
+    // never missed (a thread's own finished flag is set only after it exits).
+    let finished = AtomicUsize::new(0);
     let stats = std::thread::scope(|s| {
         let workers: Vec<_> = (0..threads)
             .map(|_| {
                 s.spawn(|| {
                     let stats = work();
+                    finished.fetch_add(1, Ordering::Release);
                     caller.unpark();
                     stats
                 })
             })
             .collect();
-        while !workers.iter().all(|t| t.is_finished()) {
+        while finished.load(Ordering::Acquire) < threads {
             if stop() {
                 halt.store(true, Ordering::Relaxed);
             }

@@ -405,6 +405,8 @@ pub struct Tables {
     pub version: u64,
     /// The pre-integration table and what it was built for.
     pub preint: Option<(wgpu::TextureView, PreintKey)>,
+    /// The same texture's texels, for the native march.
+    pub preint_texels: crate::cpu::PreintTable,
 }
 
 /// What a pre-integration table depends on.
@@ -417,7 +419,7 @@ pub struct PreintKey {
 
 impl Tables {
     pub fn new() -> Tables {
-        Tables { lut: None, rows: Vec::new(), version: 0, preint: None }
+        Tables { lut: None, rows: Vec::new(), version: 0, preint: None, preint_texels: Default::default() }
     }
 
     /// Uploads the table: a texture fetch is far cheaper than an indexed
@@ -457,6 +459,7 @@ impl Tables {
         let size = wgpu::Extent3d { width: width as u32, height: side as u32 + 2, depth_or_array_layers: 1 };
         let view = ctx.texture_with_data("uploading the pre-integration table", "preint", size, D2, format, 1, &bytes)?;
         self.preint = Some((view, key));
+        self.preint_texels = crate::cpu::PreintTable { texels, width, side };
         Ok(bytes.len() as u64)
     }
 }

@@ -83,11 +83,12 @@ impl GpuRenderer {
             Shading::Normals => variant.layout.normals_in_volume && cpu.has_normals(),
             Shading::Gradient => false,
         };
+        let model = matches!(variant.model, Model::EmissionAbsorption | Model::Absorption | Model::Emission);
         self.native_march
             && shading
-            && variant.model == Model::EmissionAbsorption
+            && model
             && !variant.back_to_front
-            && !variant.pre_integrated
+            && (!variant.pre_integrated || variant.model == Model::EmissionAbsorption)
             && variant.refine == 0
             && !variant.unbiased
             && !variant.point_light
@@ -108,6 +109,12 @@ impl GpuRenderer {
             lit: variant.shading == Shading::Normals,
             early_termination: variant.early_termination,
             jitter: variant.jitter,
+            model: match variant.model {
+                Model::Absorption => crate::cpu::Model::Absorption,
+                Model::Emission => crate::cpu::Model::Emission,
+                _ => crate::cpu::Model::EmissionAbsorption,
+            },
+            preint: variant.pre_integrated.then_some(&self.tables.preint_texels),
         };
         let s = crate::cpu::render(&frame, bytemuck::cast_slice_mut(out), stop).map_err(|_| Error::Interrupted)?;
         let stats = FrameStats { truncated_needed: s.truncated_needed, uploaded_bytes: 0, passes: 1, samples: s.samples, native: true };
