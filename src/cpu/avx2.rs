@@ -313,87 +313,15 @@ pub unsafe fn march<T: Texels>(
             at = _mm256_blendv_ps(_mm256_blendv_ps(mid, start_at, primes), _mm256_add_ps(start_at, h), carried);
         }
         let coords = |at: __m256| -> [__m256; 3] { std::array::from_fn(|k| _mm256_fmadd_ps(per[k], at, start[k])) };
-        let u = coords(at);
-        let mut w = [zero; 3];
-        let mut offs = [[zi; 2]; 3];
-        for k in 0..3 {
-            let fl = _mm256_floor_ps(u[k]);
-            w[k] = _mm256_sub_ps(u[k], fl);
-            let base = _mm256_cvttps_epi32(fl);
-            let clamp = |v: __m256i| _mm256_min_epi32(_mm256_max_epi32(v, zi), hi[k]);
-            offs[k] = [
-                _mm256_mullo_epi32(clamp(base), stride[k]),
-                _mm256_mullo_epi32(clamp(_mm256_add_epi32(base, onei)), stride[k]),
-            ];
-        }
-        let texel = tex.trilinear(&offs, &w);
-        // NaN reads as value 0 and opacity 0.
-        let v = _mm256_fmadd_ps(texel[0], value_scale, value_offset);
-        let valid = _mm256_cmp_ps::<_CMP_ORD_Q>(v, v);
-        let mut light = ambient;
-        if directional {
-            let mag = _mm256_max_ps(_mm256_max_ps(abs(texel[1]), abs(texel[2])), abs(texel[3]));
-            let lit = _mm256_cmp_ps::<_CMP_GT_OQ>(mag, zero);
-            let inv = _mm256_div_ps(one, _mm256_blendv_ps(one, mag, lit));
-            let nrm: [__m256; 3] = std::array::from_fn(|c| _mm256_mul_ps(texel[c + 1], inv));
-            let len = _mm256_sqrt_ps(_mm256_fmadd_ps(nrm[0], nrm[0], _mm256_fmadd_ps(nrm[1], nrm[1], _mm256_mul_ps(nrm[2], nrm[2]))));
-            let dot = _mm256_fmadd_ps(nrm[0], light_dir[0], _mm256_fmadd_ps(nrm[1], light_dir[1], _mm256_mul_ps(nrm[2], light_dir[2])));
-            let cos = _mm256_max_ps(_mm256_div_ps(dot, _mm256_blendv_ps(one, len, lit)), zero);
-            light = _mm256_blendv_ps(ambient, _mm256_fmadd_ps(diffuse, cos, ambient), lit);
-        }
-        // The midpoint rule (every segment of a plain frame, the shorter
-        // end segments of a pre-integrated one): optical depth and colour.
-        let midpoint = |x_only: bool| -> (__m256, [__m256; 3]) {
-            let rgba = lut_entry(_mm256_and_ps(v, valid));
-            let sigma = _mm256_and_ps(rgba[3], valid);
-            let seen = _mm256_and_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(sigma, zero), _mm256_cmp_ps::<_CMP_GT_OQ>(seg, zero));
-            let x = _mm256_and_ps(_mm256_min_ps(_mm256_mul_ps(sigma, _mm256_mul_ps(seg, seg_unit)), _mm256_set1_ps(1.0e30)), seen);
-            if x_only || !emits {
-                return (x, [zero; 3]);
-            }
-            let k = if emission { x } else { one_minus_exp_neg(x) };
-            let k = _mm256_mul_ps(k, light);
-            (x, std::array::from_fn(|c| _mm256_mul_ps(k, rgba[c])))
-        };
-        let (x, add) = match f.preint {
-            None => midpoint(false),
-            Some(table) => {
-                let (held_v, held_light) = (carry_v, carry_light);
-                let boundary = _mm256_blendv_ps(
-                    _mm256_blendv_ps(as_ps(_mm256_set1_epi32(-1)), as_ps(i), primes),
-                    as_ps(_mm256_add_epi32(i, onei)),
-                    carried,
-                );
-                carry_at = _mm256_castps_si256(_mm256_blendv_ps(as_ps(carry_at), boundary, active));
-                carry_v = _mm256_blendv_ps(carry_v, v, active);
-                carry_light = _mm256_blendv_ps(carry_light, light, active);
-                let known = _mm256_and_ps(_mm256_cmp_ps::<_CMP_ORD_Q>(held_v, held_v), valid);
-                let whole = _mm256_and_ps(_mm256_and_ps(carried, known), active);
-                let mut x = zero;
-                let mut add = [zero; 3];
-                if _mm256_movemask_ps(whole) != 0 {
-                    let e = table_entry(_mm256_and_ps(held_v, known), _mm256_and_ps(v, known), table);
-                    let k = _mm256_mul_ps(_mm256_set1_ps(0.5), _mm256_add_ps(held_light, light));
-                    x = _mm256_and_ps(e[3], whole);
-                    add = std::array::from_fn(|c| _mm256_and_ps(_mm256_mul_ps(e[c], k), whole));
-                }
-                let short = _mm256_andnot_ps(full, active);
-                if _mm256_movemask_ps(short) != 0 {
-                    let (xs, adds) = midpoint(false);
-                    x = _mm256_blendv_ps(x, xs, short);
-                    add = std::array::from_fn(|c| _mm256_blendv_ps(add[c], adds[c], short));
-                }
-                (x, add)
-            }
-        };
-        let empty = _mm256_cmp_ps::<_CMP_NGT_UQ>(x, zero);
-
         // Leaps (compositing.wgsl `cube_leap`, skipping.wgsl `cube_exit`),
-        // from the segment's midpoint.
+        // from the segment's midpoint. The shader leaps from a segment
+        // that came out empty and is centred in an empty cell; every segment
+        // centred there comes out empty, so the cell alone decides, before
+        // the volume is read: lanes that leap read nothing.
         let mut leap = zero;
         let mut next = i;
-        if !radius_grid.is_null() && _mm256_movemask_ps(_mm256_and_ps(empty, active)) != 0 {
-            let um = if f.preint.is_some() { coords(mid) } else { u };
+        if !radius_grid.is_null() {
+            let um = coords(mid);
             let uc: [__m256; 3] = std::array::from_fn(|k| _mm256_add_ps(um[k], border));
             let c: [__m256i; 3] = std::array::from_fn(|k| {
                 let ci = _mm256_cvttps_epi32(_mm256_floor_ps(_mm256_mul_ps(uc[k], cell)));
@@ -407,7 +335,7 @@ pub unsafe fn march<T: Texels>(
             // Codes from UNIFORM_FLAG up mark uniform cells, which are not empty.
             let flag = _mm256_set1_epi32(crate::occupancy::UNIFORM_FLAG as i32);
             let radius = _mm256_andnot_si256(_mm256_cmpgt_epi32(code, _mm256_sub_epi32(flag, onei)), code);
-            leap = _mm256_and_ps(_mm256_and_ps(empty, active), as_ps(_mm256_cmpgt_epi32(radius, zi)));
+            leap = _mm256_and_ps(active, as_ps(_mm256_cmpgt_epi32(radius, zi)));
             let mut exit = _mm256_set1_ps(3.0e38);
             for k in 0..3 {
                 let lo = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_sub_epi32(c[k], _mm256_sub_epi32(radius, onei))), _mm256_set1_ps(CELL));
@@ -426,6 +354,92 @@ pub unsafe fn march<T: Texels>(
             let kf = _mm256_min_ps(_mm256_max_ps(kf, lowest), _mm256_cvtepi32_ps(n));
             next = _mm256_cvttps_epi32(kf);
         }
+        // Lanes that read the volume: those that do not leap, and, under
+        // pre-integration, those that leap by one segment only, whose far
+        // value the next segment carries as the shader's does.
+        let mut fetch = _mm256_andnot_ps(leap, active);
+        if f.preint.is_some() {
+            fetch = _mm256_or_ps(fetch, _mm256_and_ps(leap, as_ps(_mm256_cmpeq_epi32(next, _mm256_add_epi32(i, onei)))));
+        }
+        let (x, add) = if _mm256_movemask_ps(fetch) == 0 {
+            (zero, [zero; 3])
+        } else {
+            let u = coords(at);
+            let mut w = [zero; 3];
+            let mut offs = [[zi; 2]; 3];
+            for k in 0..3 {
+                let fl = _mm256_floor_ps(u[k]);
+                w[k] = _mm256_sub_ps(u[k], fl);
+                let base = _mm256_cvttps_epi32(fl);
+                let clamp = |v: __m256i| _mm256_min_epi32(_mm256_max_epi32(v, zi), hi[k]);
+                offs[k] = [
+                    _mm256_mullo_epi32(clamp(base), stride[k]),
+                    _mm256_mullo_epi32(clamp(_mm256_add_epi32(base, onei)), stride[k]),
+                ];
+            }
+            let texel = tex.trilinear(&offs, &w);
+            // NaN reads as value 0 and opacity 0.
+            let v = _mm256_fmadd_ps(texel[0], value_scale, value_offset);
+            let valid = _mm256_cmp_ps::<_CMP_ORD_Q>(v, v);
+            let mut light = ambient;
+            if directional {
+                let mag = _mm256_max_ps(_mm256_max_ps(abs(texel[1]), abs(texel[2])), abs(texel[3]));
+                let lit = _mm256_cmp_ps::<_CMP_GT_OQ>(mag, zero);
+                let inv = _mm256_div_ps(one, _mm256_blendv_ps(one, mag, lit));
+                let nrm: [__m256; 3] = std::array::from_fn(|c| _mm256_mul_ps(texel[c + 1], inv));
+                let len = _mm256_sqrt_ps(_mm256_fmadd_ps(nrm[0], nrm[0], _mm256_fmadd_ps(nrm[1], nrm[1], _mm256_mul_ps(nrm[2], nrm[2]))));
+                let dot = _mm256_fmadd_ps(nrm[0], light_dir[0], _mm256_fmadd_ps(nrm[1], light_dir[1], _mm256_mul_ps(nrm[2], light_dir[2])));
+                let cos = _mm256_max_ps(_mm256_div_ps(dot, _mm256_blendv_ps(one, len, lit)), zero);
+                light = _mm256_blendv_ps(ambient, _mm256_fmadd_ps(diffuse, cos, ambient), lit);
+            }
+            // The midpoint rule (every segment of a plain frame, the shorter
+            // end segments of a pre-integrated one): optical depth and colour.
+            let midpoint = || -> (__m256, [__m256; 3]) {
+                let rgba = lut_entry(_mm256_and_ps(v, valid));
+                let sigma = _mm256_and_ps(rgba[3], valid);
+                let seen = _mm256_and_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(sigma, zero), _mm256_cmp_ps::<_CMP_GT_OQ>(seg, zero));
+                let x = _mm256_and_ps(_mm256_min_ps(_mm256_mul_ps(sigma, _mm256_mul_ps(seg, seg_unit)), _mm256_set1_ps(1.0e30)), seen);
+                if !emits {
+                    return (x, [zero; 3]);
+                }
+                let k = if emission { x } else { one_minus_exp_neg(x) };
+                let k = _mm256_mul_ps(k, light);
+                (x, std::array::from_fn(|c| _mm256_mul_ps(k, rgba[c])))
+            };
+            let (x, add) = match f.preint {
+                None => midpoint(),
+                Some(table) => {
+                    let (held_v, held_light) = (carry_v, carry_light);
+                    let boundary = _mm256_blendv_ps(
+                        _mm256_blendv_ps(as_ps(_mm256_set1_epi32(-1)), as_ps(i), primes),
+                        as_ps(_mm256_add_epi32(i, onei)),
+                        carried,
+                    );
+                    carry_at = _mm256_castps_si256(_mm256_blendv_ps(as_ps(carry_at), boundary, fetch));
+                    carry_v = _mm256_blendv_ps(carry_v, v, fetch);
+                    carry_light = _mm256_blendv_ps(carry_light, light, fetch);
+                    let known = _mm256_and_ps(_mm256_cmp_ps::<_CMP_ORD_Q>(held_v, held_v), valid);
+                    let whole = _mm256_and_ps(_mm256_and_ps(carried, known), fetch);
+                    let mut x = zero;
+                    let mut add = [zero; 3];
+                    if _mm256_movemask_ps(whole) != 0 {
+                        let e = table_entry(_mm256_and_ps(held_v, known), _mm256_and_ps(v, known), table);
+                        let k = _mm256_mul_ps(_mm256_set1_ps(0.5), _mm256_add_ps(held_light, light));
+                        x = _mm256_and_ps(e[3], whole);
+                        add = std::array::from_fn(|c| _mm256_and_ps(_mm256_mul_ps(e[c], k), whole));
+                    }
+                    let short = _mm256_andnot_ps(full, fetch);
+                    if _mm256_movemask_ps(short) != 0 {
+                        let (xs, adds) = midpoint();
+                        x = _mm256_blendv_ps(x, xs, short);
+                        add = std::array::from_fn(|c| _mm256_blendv_ps(add[c], adds[c], short));
+                    }
+                    (x, add)
+                }
+            };
+            (x, add)
+        };
+
         // A priming segment that does not leap is marched again, now carried.
         let again = _mm256_andnot_ps(leap, primes);
         let blend = _mm256_andnot_ps(_mm256_or_ps(leap, again), active);
