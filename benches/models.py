@@ -77,7 +77,7 @@ def run(volume, size, frames, keep_images=False):
             r.render()
             times.append((time.perf_counter() - t) * 1e3)
         st = r.last_frame_stats
-        rows.append((label, float(np.median(times)), st["samples"] / (size * size), st["passes"]))
+        rows.append((label, float(np.median(times)), st["samples"] / (size * size), st["passes"], st["engine"]))
         if keep_images:
             img = img.copy()
             if label == "emission":
@@ -94,19 +94,21 @@ def table(title, rows, name, args):
     print(f"\n{title}")
     base = rows[0][1]
     # Whole-frame time over samples (setup and readback included).
-    ns = {label: ms * 1e6 / max(spp * args.size**2, 1.0) for label, ms, spp, _ in rows}
-    print(f"{'model':<22} {'ms/frame':>9} {'vs EA':>6} {'samples/px':>11} {'ns/sample':>10} {'passes':>6}")
-    for label, ms, spp, passes in rows:
-        print(f"{label:<22} {ms:9.1f} {ms / base:6.2f} {spp:11.1f} {ns[label]:10.1f} {passes:6d}")
+    ns = {label: ms * 1e6 / max(spp * args.size**2, 1.0) for label, ms, spp, _, _ in rows}
+    print(f"{'model':<22} {'ms/frame':>9} {'vs EA':>6} {'samples/px':>11} {'ns/sample':>10} {'passes':>6} engine")
+    for label, ms, spp, passes, engine in rows:
+        print(f"{label:<22} {ms:9.1f} {ms / base:6.2f} {spp:11.1f} {ns[label]:10.1f} {passes:6d} {engine}")
     write_table(name, f"benches/models.py --frames {args.frames}",
-                ["model", "ms per frame", "vs emission_absorption", "samples per pixel", "ns per sample", "passes"],
-                [[label, f"{ms:.1f}", f"{ms / base:.2f}", f"{spp:.1f}", f"{ns[label]:.1f}", passes]
-                 for label, ms, spp, passes in rows],
+                ["model", "ms per frame", "vs emission_absorption", "samples per pixel", "ns per sample", "passes",
+                 "engine"],
+                [[label, f"{ms:.1f}", f"{ms / base:.2f}", f"{spp:.1f}", f"{ns[label]:.1f}", passes, engine]
+                 for label, ms, spp, passes, engine in rows],
                 device=VolumeRenderer(8, 8).device,
                 note=f"{title}, {args.size}x{args.size}, balanced, isometric camera at distance 3; median of "
                 f"{args.frames} frames after a warm-up. ns per sample: frame time over samples taken (shadow "
                 "samples included); mip's (one fetch and a max per sample) is what a sample costs this device "
-                "at the least.")
+                "at the least. engine: native, the CPU march of src/cpu (where the adapter is a CPU); gpu, the "
+                "shader.")
 
 
 def main():
