@@ -39,7 +39,7 @@ def sphere_pair(n=40):
 
 
 def scene(kind):
-    """(volume, precision, light, opacity TF) of each storage the march reads."""
+    """(volume, precision, light, opacity TF[, colour TF]) of each storage the march reads."""
     d = sphere_pair()
     ramp = OpacityTransferFunction.linear(0.0, 0.4)
     lit = Light.directional([-0.6, -0.3, -0.8], ambient=0.25, diffuse=0.75)
@@ -53,6 +53,14 @@ def scene(kind):
         return Volume(d, None, *BOX), "float32", Light.ambient_only(0.9), ramp
     if kind == "values_fixed16":
         return Volume(d, None, *BOX), "fixed16", Light.ambient_only(0.9), ramp
+    if kind == "plateau":
+        # Flat opacity above 0.45: cells whose values all lie there are
+        # uniform, and unlit frames composite runs through them whole.
+        x, y, z = np.meshgrid(*[np.linspace(-1, 1, 72)] * 3, indexing="ij")
+        data = (0.6 + 0.4 * np.sin(3 * x) * np.sin(2 * y) * np.cos(2.5 * z)).astype(np.float32)
+        flat = OpacityTransferFunction([(0.0, 0.0), (0.2, 0.0), (0.45, 0.2), (1.0, 0.2)])
+        colour = ColorTransferFunction([(0.0, (0.0, 0.0, 1.0)), (0.45, (1.0, 0.5, 0.0)), (1.0, (1.0, 0.5, 0.0))])
+        return Volume(data, None, *BOX), "float32", Light.ambient_only(0.9), flat, colour
     if kind == "nan":
         d = d.copy()
         d[10:14, 12:15, 5:20] = np.nan
@@ -60,16 +68,16 @@ def scene(kind):
     raise ValueError(kind)
 
 
-KINDS = ["normals_fixed16", "normals_float32", "gradients", "values_float32", "values_fixed16", "nan"]
+KINDS = ["normals_fixed16", "normals_float32", "gradients", "values_float32", "values_fixed16", "plateau", "nan"]
 OUTSIDE = Camera.from_spherical(np.zeros(3), 0.7, 0.4, 0.0, 3.0)
 INSIDE = Camera(target=np.array([-0.6, 0.2, 0.1]), azimuth=0.3, elevation=0.2, roll=0.0, distance=0.5)
 
 
 def renderer(kind, config=None, size=(72, 64)):
-    vol, precision, light, otf = scene(kind)
+    vol, precision, light, otf, *ctf = scene(kind)
     r = VolumeRenderer(*size, config=config or RenderConfig.balanced(), light=light)
     r.load_volume(vol, precision=precision)
-    r.set_transfer_functions(ColorTransferFunction.from_colormap("viridis"), otf)
+    r.set_transfer_functions(ctf[0] if ctf else ColorTransferFunction.from_colormap("viridis"), otf)
     r.set_camera(OUTSIDE)
     r.native_march = True  # whatever PYVR_NATIVE_MARCH says
     return r
@@ -126,7 +134,7 @@ def test_native_march_matches_the_shader(kind, name):
         else:
             (a, sa), (b, sb) = native, shader
             assert np.abs(a - b).max() < 0.25 * LEVEL, f"{kind}, {name}, inside"
-    if name == "truncated":
+    if name == "truncated" and kind != "plateau":  # the plateau's rays stop early
         assert shader[1]["truncated_needed"] > 60
 
 
@@ -152,6 +160,17 @@ def test_skipping_crop_and_value_range_in_the_native_march(kind):
     r.set_transfer_functions(ColorTransferFunction.from_colormap("plasma"), OpacityTransferFunction.linear(0.0, 0.5),
                              value_range=(0.2, 0.9))
     assert_same(*both(r), "value range")
+
+
+def test_uniform_runs_in_the_native_march():
+    r = renderer("plateau")
+    native, shader = both(r)
+    assert r.uniform_fraction() > 0.25
+    assert_same(native, shader, "plateau")
+    r.uniform_runs = False
+    one_by_one, _ = both(r)
+    assert np.abs(one_by_one[0] - native[0]).max() < 0.25 * LEVEL
+    assert native[1]["samples"] < 0.7 * one_by_one[1]["samples"]
 
 
 @pytest.mark.parametrize("changes, light", [

@@ -183,7 +183,7 @@ fn one_minus_exp_neg(x: __m256) -> __m256 {
 /// Stops early (its pixels then are garbage) once `halt` is set.
 ///
 /// # Safety
-/// Needs AVX2 and FMA; `f.empty_radius`, where given, is followed by three
+/// Needs AVX2 and FMA; `f.cells`, where given, is followed by three
 /// readable bytes, and R16Snorm codes by one (`super::render` checks).
 #[target_feature(enable = "avx2,fma")]
 pub unsafe fn march<T: Texels>(
@@ -237,9 +237,9 @@ pub unsafe fn march<T: Texels>(
     let threshold = _mm256_set1_ps(p.threshold);
     let cell = _mm256_set1_ps(1.0 / CELL);
     let border = _mm256_set1_ps(0.5 - p.border as f32);
-    let (radius_grid, grid) = match f.empty_radius {
-        Some((g, d)) => (g.as_ptr() as *const i32, d),
-        None => (std::ptr::null(), [1, 1, 1]),
+    let (radius_grid, grid) = match f.cells {
+        Some((g, d)) if f.skip_empty || f.uniform_runs => (g.as_ptr() as *const i32, d),
+        _ => (std::ptr::null(), [1, 1, 1]),
     };
     let grid_hi: [__m256i; 3] = grid.map(|d| _mm256_set1_epi32(d as i32 - 1));
     let grid_stride = numpy_strides(grid, 1).map(|s| _mm256_set1_epi32(s));
@@ -319,6 +319,7 @@ pub unsafe fn march<T: Texels>(
         // centred there comes out empty, so the cell alone decides, before
         // the volume is read: lanes that leap read nothing.
         let mut leap = zero;
+        let mut uniform = zero;
         let mut next = i;
         if !radius_grid.is_null() {
             let um = coords(mid);
@@ -334,12 +335,22 @@ pub unsafe fn march<T: Texels>(
             let code = _mm256_and_si256(_mm256_i32gather_epi32::<1>(radius_grid, at), _mm256_set1_epi32(0xff));
             // Codes from UNIFORM_FLAG up mark uniform cells, which are not empty.
             let flag = _mm256_set1_epi32(crate::occupancy::UNIFORM_FLAG as i32);
-            let radius = _mm256_andnot_si256(_mm256_cmpgt_epi32(code, _mm256_sub_epi32(flag, onei)), code);
-            leap = _mm256_and_ps(active, as_ps(_mm256_cmpgt_epi32(radius, zi)));
+            let flagged = _mm256_cmpgt_epi32(code, _mm256_sub_epi32(flag, onei));
+            let radius = _mm256_andnot_si256(flagged, code);
+            if f.skip_empty {
+                leap = _mm256_and_ps(active, as_ps(_mm256_cmpgt_epi32(radius, zi)));
+            }
+            // A cell holds an empty radius or a uniform one: one exit serves both.
+            let mut cube = radius;
+            if f.uniform_runs {
+                let uniform_radius = _mm256_and_si256(flagged, _mm256_sub_epi32(code, flag));
+                uniform = _mm256_and_ps(active, as_ps(_mm256_cmpgt_epi32(uniform_radius, zi)));
+                cube = _mm256_or_si256(_mm256_and_si256(_mm256_castps_si256(leap), radius), uniform_radius);
+            }
             let mut exit = _mm256_set1_ps(3.0e38);
             for k in 0..3 {
-                let lo = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_sub_epi32(c[k], _mm256_sub_epi32(radius, onei))), _mm256_set1_ps(CELL));
-                let up = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_add_epi32(c[k], radius)), _mm256_set1_ps(CELL));
+                let lo = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_sub_epi32(c[k], _mm256_sub_epi32(cube, onei))), _mm256_set1_ps(CELL));
+                let up = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_add_epi32(c[k], cube)), _mm256_set1_ps(CELL));
                 let side = _mm256_blendv_ps(lo, up, ahead[k]);
                 let tk = _mm256_div_ps(_mm256_sub_ps(side, uc[k]), _mm256_blendv_ps(one, per[k], moving[k]));
                 exit = _mm256_min_ps(exit, _mm256_blendv_ps(_mm256_set1_ps(3.0e38), tk, moving[k]));
@@ -443,6 +454,33 @@ pub unsafe fn march<T: Texels>(
         // A priming segment that does not leap is marched again, now carried.
         let again = _mm256_andnot_ps(leap, primes);
         let blend = _mm256_andnot_ps(_mm256_or_ps(leap, again), active);
+        // A full segment with extinction centred in a uniform cell composites
+        // the segments after it in the cube of uniform cells as one
+        // (compositing.wgsl `uniform_run`): k segments of one colour and
+        // extinction, up to where the ray would stop early.
+        let (mut x, mut add) = (x, add);
+        let mut advance = onei;
+        let run = _mm256_and_ps(_mm256_and_ps(uniform, blend), _mm256_and_ps(full, _mm256_cmp_ps::<_CMP_GT_OQ>(x, zero)));
+        if _mm256_movemask_ps(run) != 0 {
+            let last = _mm256_cvtepi32_ps(_mm256_max_epi32(_mm256_sub_epi32(n, onei), zi));
+            let mut k = _mm256_sub_ps(_mm256_min_ps(_mm256_cvtepi32_ps(next), last), _mm256_cvtepi32_ps(i));
+            if f.early_termination {
+                // The first j with 1 - trans e^(-j x) >= threshold (inf at threshold 1).
+                let (mut t, mut xs, mut kt) = ([0f32; 8], [0f32; 8], [0f32; 8]);
+                _mm256_storeu_ps(t.as_mut_ptr(), trans);
+                _mm256_storeu_ps(xs.as_mut_ptr(), x);
+                for l in 0..8 {
+                    kt[l] = ((t[l] / (1.0 - p.threshold)).ln() / xs[l]).ceil().max(1.0);
+                }
+                k = _mm256_min_ps(k, _mm256_blendv_ps(k, _mm256_loadu_ps(kt.as_ptr()), run));
+            }
+            let run = _mm256_and_ps(run, _mm256_cmp_ps::<_CMP_GT_OQ>(k, one));
+            let kx = _mm256_min_ps(_mm256_mul_ps(k, x), _mm256_set1_ps(1.0e30));
+            let scale = if emission { k } else { _mm256_div_ps(one_minus_exp_neg(kx), one_minus_exp_neg(x)) };
+            x = _mm256_blendv_ps(x, kx, run);
+            add = std::array::from_fn(|c| _mm256_blendv_ps(add[c], _mm256_mul_ps(add[c], scale), run));
+            advance = _mm256_castps_si256(_mm256_blendv_ps(as_ps(onei), as_ps(_mm256_cvttps_epi32(k)), run));
+        }
         for c in 0..3 {
             color_b[c] = _mm256_fmadd_ps(_mm256_and_ps(trans, blend), add[c], color_b[c]);
         }
@@ -476,7 +514,7 @@ pub unsafe fn march<T: Texels>(
             stopped = _mm256_or_ps(stopped, _mm256_and_ps(_mm256_or_ps(stop, faded), blend));
         }
         i = _mm256_castps_si256(_mm256_blendv_ps(
-            as_ps(_mm256_add_epi32(i, _mm256_and_si256(_mm256_castps_si256(blend), onei))),
+            as_ps(_mm256_add_epi32(i, _mm256_and_si256(_mm256_castps_si256(blend), advance))),
             as_ps(next),
             leap,
         ));

@@ -84,14 +84,20 @@ pub struct Frame<'a> {
     pub volume: &'a CpuVolume,
     /// The transfer function's table (entries at scalars m / (M - 1)).
     pub lut: &'a [[f32; 4]],
-    /// Empty-space skipping: each occupancy cell's empty radius (0 for a
-    /// cell that is not empty; a uniform cell's code counts as not empty),
-    /// cells of `BLOCK` voxels in numpy axis order, and the grid's size.
-    pub empty_radius: Option<(&'a [u8], [usize; 3])>,
+    /// Each occupancy cell's code (its empty radius, 0 where it is not
+    /// empty, or UNIFORM_FLAG + its uniform radius), cells of `BLOCK`
+    /// voxels in numpy axis order, and the grid's size; needed by
+    /// `skip_empty` and `uniform_runs`.
+    pub cells: Option<(&'a [u8], [usize; 3])>,
+    /// Leap over empty cells, and march only the window of occupied ones.
+    pub skip_empty: bool,
     /// The texels' normals light the samples (else ambient light only).
     pub lit: bool,
     pub early_termination: bool,
     pub jitter: bool,
+    /// Composite a run of segments through a cube of uniform cells as one
+    /// (the cells' codes from UNIFORM_FLAG up).
+    pub uniform_runs: bool,
     pub model: Model,
     /// Full segments take their (front, back) entry of this table (an
     /// emission-absorption frame's); None: the midpoint rule.
@@ -150,7 +156,7 @@ pub fn render(frame: &Frame, out: &mut [[f32; 4]], stop: &mut dyn FnMut() -> boo
     assert_eq!(out.len(), w * h, "output size");
     assert!(available(), "the native march needs AVX2 and FMA");
     assert!(p.max_steps <= MAX_STEPS, "the native march takes at most {MAX_STEPS} steps a ray");
-    if let Some((codes, dims)) = frame.empty_radius {
+    if let Some((codes, dims)) = frame.cells {
         assert!(codes.len() >= dims.iter().product::<usize>() + 3, "occupancy codes need 3 bytes of padding");
     }
     if let Some(t) = frame.preint {
@@ -296,7 +302,7 @@ impl Ray {
         let needed = (chord / p.step_size - shift).ceil().min(4.0e9) as u32;
         let n = needed.min(p.max_steps);
         let mut ray = Ray { d, t0, chord, shift, n, needed, window: (0, n) };
-        if frame.empty_radius.is_some() {
+        if frame.skip_empty {
             ray.window = ray.occupied_window(frame);
         }
         Some(ray)

@@ -71,9 +71,7 @@ impl GpuRenderer {
 
     /// Whether the native CPU march renders this frame: the volume's texels
     /// are kept for it (the adapter is a CPU that runs it) and the frame is
-    /// of the kind it covers (`crate::cpu`). Frames that composite runs of
-    /// uniform cells whole stay on the shader, which takes far fewer
-    /// samples there than the native march would.
+    /// of the kind it covers (`crate::cpu`).
     fn native_covers(&self, variant: &Variant, cfg: &RenderConfig) -> bool {
         let Some(cpu) = self.volume.as_ref().and_then(|v| v.cpu.as_ref()) else {
             return false;
@@ -92,7 +90,6 @@ impl GpuRenderer {
             && variant.refine == 0
             && !variant.unbiased
             && !variant.point_light
-            && !variant.uniform_cells
             && variant.correction == OpacityCorrection::Exponential
             && self.tables.rows.len() >= 2
             && cfg.max_steps <= crate::cpu::MAX_STEPS as i64
@@ -105,10 +102,12 @@ impl GpuRenderer {
             params,
             volume: cpu,
             lut: &self.tables.rows,
-            empty_radius: (variant.skip_empty && !occ.codes.is_empty()).then_some((&occ.codes[..], occ.dims)),
+            cells: (!occ.codes.is_empty()).then_some((&occ.codes[..], occ.dims)),
+            skip_empty: variant.skip_empty && !occ.codes.is_empty(),
             lit: variant.shading == Shading::Normals,
             early_termination: variant.early_termination,
             jitter: variant.jitter,
+            uniform_runs: variant.uniform_cells && !occ.codes.is_empty(),
             model: match variant.model {
                 Model::Absorption => crate::cpu::Model::Absorption,
                 Model::Emission => crate::cpu::Model::Emission,
