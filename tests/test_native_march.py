@@ -198,3 +198,26 @@ def test_native_march_off_keeps_frames_on_the_shader():
     r.native_march = False
     r.render()
     assert r.last_frame_stats["engine"] == "gpu"
+
+
+def test_every_cross_validation_scene_matches_the_shader():
+    # The scenes checked against the moderngl reference (test_cross_validation.py),
+    # each rendered by both engines; those the native march does not cover
+    # (a point light, the power correction) stay on the shader both times.
+    from scenes import frame, make_renderer
+    from test_cross_validation import H, SCENES, W
+    from test_cross_validation import scene as cross_scene
+
+    native_scenes = []
+    for name in SCENES:
+        vol, ctf, otf, cam, light, cfg = cross_scene(name)
+        r = make_renderer(vol, size=(W + 1, H + 1), config=cfg, light=light, camera=cam, ctf=ctf, otf=otf)
+        out = []
+        for native in (True, False):
+            r.native_march = native
+            out.append((frame(r), r.last_frame_stats["engine"]))
+        (a, engine), (b, _) = out
+        assert np.abs(a - b).max() < 0.25 * LEVEL, f"{name}: {np.abs(a - b).max() / LEVEL:.4f} levels ({engine})"
+        if engine == "native":
+            native_scenes.append(name)
+    assert len(native_scenes) == len(SCENES) - 2, native_scenes
