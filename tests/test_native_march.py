@@ -1,8 +1,8 @@
 """The native CPU march renders what the shader renders.
 
 Where wgpu's only adapter is a CPU, the frames the native march covers
-(src/cpu: emission-absorption, plain or pre-integrated, absorption and
-emission, front to back, exponential opacity correction, unlit or lit from
+(src/cpu: emission-absorption, plain, pre-integrated or refined,
+absorption and emission, front to back, exponential opacity correction, unlit or lit from
 the texels' normals or gradients, one texture) are its, not the shader's. Each case renders one frame both ways
 (``native_march`` on and off) and compares the premultiplied images and
 what the frames took. Both run the same rule in f32; they differ in the
@@ -116,6 +116,8 @@ CONFIGS = {
     "pre_integrated": {"pre_integrated": True},
     # Jitter makes the first segment shorter: the midpoint rule there.
     "pre_integrated_jitter": {"pre_integrated": True, "jitter": True, "step_size": 0.03},
+    # Segments that may cross an opacity change their ramp misses are taken as 8 samples.
+    "refined": {"pre_integrated": True, "refine": 8, "step_size": 0.03},
     "absorption": {"model": "absorption"},
     "emission": {"model": "emission"},
 }
@@ -174,7 +176,6 @@ def test_uniform_runs_in_the_native_march():
 
 
 @pytest.mark.parametrize("changes, light", [
-    ({"pre_integrated": True, "refine": 8}, None),
     ({"order": "back_to_front"}, None),
     ({"opacity_correction": "power"}, None),
     ({"model": "mip"}, None),
@@ -221,3 +222,20 @@ def test_every_cross_validation_scene_matches_the_shader():
         if engine == "native":
             native_scenes.append(name)
     assert len(native_scenes) == len(SCENES) - 2, native_scenes
+
+
+@pytest.mark.parametrize("lit", [False, True])
+def test_refined_segments_in_the_native_march(lit):
+    # test_refine.py's thin helix under a step transfer function: many
+    # segments cross the threshold where their ramp does not see it.
+    from test_refine import config as refine_config
+    from test_refine import helix_scene
+
+    r = helix_scene(lit)
+    r.native_march = True
+    plain, _ = both(r, refine_config(r, 0.01, 0))
+    native, shader = both(r, refine_config(r, 0.01, 8))
+    assert_same(native, shader, f"refined, lit={lit}")
+    # Refined segments take 8 samples where unrefined ones take one.
+    assert native[1]["samples"] > 1.02 * plain[1]["samples"]
+    assert np.abs(native[0] - plain[0]).max() > 2 * LEVEL

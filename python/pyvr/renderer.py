@@ -874,8 +874,8 @@ class VolumeRenderer:
         """Where the only adapter is a CPU (wgpu on lavapipe) and it has
         AVX2 and FMA, render the frames the native CPU march covers with it
         instead of the shader (default True; the environment variable
-        ``PYVR_NATIVE_MARCH=0`` sets it off): emission-absorption (plain or
-        pre-integrated), absorption and emission, front to back, with
+        ``PYVR_NATIVE_MARCH=0`` sets it off): emission-absorption (plain,
+        pre-integrated or refined), absorption and emission, front to back, with
         exponential opacity correction, unlit or lit from the normals (or
         gradients) the volume's texels hold, from float32 or fixed16
         storage in one texture; 1.4-1.9x the shader's speed per sample on

@@ -3,6 +3,9 @@
 //! until every lane's ray is done.
 
 use super::{Frame, Model, Ray, Stats, CELL, TILE};
+
+/// compositing.wgsl's REFINE_EPS.
+const REFINE_EPS: f32 = crate::preintegrate::REFINE_OPACITY_CHANGE as f32;
 use std::arch::x86_64::*;
 use std::sync::atomic::{AtomicBool, Ordering};
 
@@ -256,6 +259,22 @@ pub unsafe fn march<T: Texels>(
     // segment that fetched it to the next (compositing.wgsl
     // `preintegrated_segment`): the boundary index (-1: none), value, light.
     let (mut carry_at, mut carry_v, mut carry_light) = (_mm256_set1_epi32(-1), zero, zero);
+    // A refined segment in progress (compositing.wgsl `Integration`):
+    // segment `sub_at` has taken its first `sub - 1` samples (sub = 0: none
+    // in progress), composited front to back into (sub_x, sub_add).
+    let refine = f.refine as i32;
+    let (mut sub_at, mut sub) = (_mm256_set1_epi32(-1), zi);
+    let (mut sub_x, mut sub_add) = (zero, [zero; 3]);
+    let piece = _mm256_set1_ps(p.step_size / f.refine.max(1) as f32);
+    // Trilinear values change along a ray by at most this much over half a
+    // step (compositing.wgsl `needs_refining`: the slopes are in texture axis order).
+    let reach = {
+        let mut r = zero;
+        for k in 0..3 {
+            r = _mm256_fmadd_ps(_mm256_set1_ps(p.slopes[2 - k]), abs(per[k]), r);
+        }
+        _mm256_mul_ps(r, _mm256_set1_ps(0.5 * p.step_size))
+    };
     let lut_entry = |v: __m256| -> [__m256; 4] {
         let xl = _mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(v, zero), one), lut_scale);
         let k = _mm256_min_epi32(_mm256_cvttps_epi32(xl), lut_last);
@@ -290,6 +309,23 @@ pub unsafe fn march<T: Texels>(
         let (a, b, c, d) = (corner(x0, y0), corner(x1, y0), corner(x0, y1), corner(x1, y1));
         std::array::from_fn(|k| lerp(lerp(a[k], b[k], fx), lerp(c[k], d[k], fx), fy))
     };
+    // compositing.wgsl `opacity_variation`: the running sums of the table's
+    // opacity change, read at the entries around [lo, hi].
+    let variation = |lo: __m256, hi: __m256, t: &super::PreintTable| -> __m256 {
+        let m1 = _mm256_set1_ps(p.lut_size as f32 - 1.0);
+        let i0 = _mm256_cvttps_epi32(_mm256_floor_ps(_mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(lo, zero), one), m1)));
+        let i1 = _mm256_cvttps_epi32(_mm256_ceil_ps(_mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(hi, zero), one), m1)));
+        let row = _mm256_set1_epi32((4 * t.side * t.width) as i32);
+        let base = t.texels.as_ptr() as *const f32;
+        // SAFETY: i0, i1 < lut_size <= width: inside the sums row.
+        let (a, b) = unsafe {
+            (
+                _mm256_i32gather_ps::<4>(base, _mm256_add_epi32(row, _mm256_slli_epi32::<2>(i0))),
+                _mm256_i32gather_ps::<4>(base, _mm256_add_epi32(row, _mm256_slli_epi32::<2>(i1))),
+            )
+        };
+        _mm256_sub_ps(b, a)
+    };
     let mut steps = 0u32;
     while _mm256_movemask_ps(active) != 0 {
         steps = steps.wrapping_add(1);
@@ -305,13 +341,23 @@ pub unsafe fn march<T: Texels>(
         let mid = _mm256_fmadd_ps(seg, _mm256_set1_ps(0.5), start_at);
         // A full pre-integrated segment fetches its far boundary, or first
         // its near one when that is not carried (`primes`: marched again).
-        let (mut carried, mut primes, mut at) = (zero, zero, mid);
+        // A refined one takes the midpoint sample of its next piece.
+        let (mut carried, mut primes, mut at, mut in_sub) = (zero, zero, mid, zero);
         let full = _mm256_cmp_ps::<_CMP_EQ_OQ>(seg, h);
         if f.preint.is_some() {
-            carried = _mm256_and_ps(full, as_ps(_mm256_cmpeq_epi32(carry_at, i)));
-            primes = _mm256_andnot_ps(carried, full);
+            if refine > 0 {
+                in_sub = _mm256_and_ps(
+                    _mm256_and_ps(full, as_ps(_mm256_cmpgt_epi32(sub, zi))),
+                    as_ps(_mm256_cmpeq_epi32(sub_at, i)),
+                );
+            }
+            carried = _mm256_andnot_ps(in_sub, _mm256_and_ps(full, as_ps(_mm256_cmpeq_epi32(carry_at, i))));
+            primes = _mm256_andnot_ps(_mm256_or_ps(carried, in_sub), full);
+            let at_sub = _mm256_fmadd_ps(_mm256_sub_ps(_mm256_cvtepi32_ps(sub), _mm256_set1_ps(0.5)), piece, start_at);
             at = _mm256_blendv_ps(_mm256_blendv_ps(mid, start_at, primes), _mm256_add_ps(start_at, h), carried);
+            at = _mm256_blendv_ps(at, at_sub, in_sub);
         }
+        let mut again = zero;
         let coords = |at: __m256| -> [__m256; 3] { std::array::from_fn(|k| _mm256_fmadd_ps(per[k], at, start[k])) };
         // Leaps (compositing.wgsl `cube_leap`, skipping.wgsl `cube_exit`),
         // from the segment's midpoint. The shader leaps from a segment
@@ -405,7 +451,7 @@ pub unsafe fn march<T: Texels>(
             }
             // The midpoint rule (every segment of a plain frame, the shorter
             // end segments of a pre-integrated one): optical depth and colour.
-            let midpoint = || -> (__m256, [__m256; 3]) {
+            let midpoint = |seg: __m256| -> (__m256, [__m256; 3]) {
                 let rgba = lut_entry(_mm256_and_ps(v, valid));
                 let sigma = _mm256_and_ps(rgba[3], valid);
                 let seen = _mm256_and_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(sigma, zero), _mm256_cmp_ps::<_CMP_GT_OQ>(seg, zero));
@@ -418,7 +464,7 @@ pub unsafe fn march<T: Texels>(
                 (x, std::array::from_fn(|c| _mm256_mul_ps(k, rgba[c])))
             };
             let (x, add) = match f.preint {
-                None => midpoint(),
+                None => midpoint(seg),
                 Some(table) => {
                     let (held_v, held_light) = (carry_v, carry_light);
                     let boundary = _mm256_blendv_ps(
@@ -426,22 +472,52 @@ pub unsafe fn march<T: Texels>(
                         as_ps(_mm256_add_epi32(i, onei)),
                         carried,
                     );
-                    carry_at = _mm256_castps_si256(_mm256_blendv_ps(as_ps(carry_at), boundary, fetch));
-                    carry_v = _mm256_blendv_ps(carry_v, v, fetch);
-                    carry_light = _mm256_blendv_ps(carry_light, light, fetch);
+                    // A refined segment's samples leave the carried boundary as it was.
+                    let moves = _mm256_andnot_ps(in_sub, fetch);
+                    carry_at = _mm256_castps_si256(_mm256_blendv_ps(as_ps(carry_at), boundary, moves));
+                    carry_v = _mm256_blendv_ps(carry_v, v, moves);
+                    carry_light = _mm256_blendv_ps(carry_light, light, moves);
                     let known = _mm256_and_ps(_mm256_cmp_ps::<_CMP_ORD_Q>(held_v, held_v), valid);
-                    let whole = _mm256_and_ps(_mm256_and_ps(carried, known), fetch);
+                    let mut whole = _mm256_and_ps(_mm256_and_ps(carried, known), fetch);
                     let mut x = zero;
                     let mut add = [zero; 3];
+                    if refine > 0 && _mm256_movemask_ps(whole) != 0 {
+                        // Where the values may reach an opacity change the
+                        // ramp misses, the segment is taken as `refine`
+                        // midpoint samples, starting with the next visit.
+                        let centre = _mm256_mul_ps(_mm256_set1_ps(0.5), _mm256_add_ps(held_v, v));
+                        let change = variation(_mm256_sub_ps(centre, reach), _mm256_add_ps(centre, reach), table);
+                        let starts = _mm256_and_ps(whole, _mm256_cmp_ps::<_CMP_GT_OQ>(change, _mm256_set1_ps(REFINE_EPS)));
+                        sub_at = _mm256_castps_si256(_mm256_blendv_ps(as_ps(sub_at), as_ps(i), starts));
+                        sub = _mm256_castps_si256(_mm256_blendv_ps(as_ps(sub), as_ps(onei), starts));
+                        sub_x = _mm256_andnot_ps(starts, sub_x);
+                        sub_add = sub_add.map(|c| _mm256_andnot_ps(starts, c));
+                        again = _mm256_or_ps(again, starts);
+                        whole = _mm256_andnot_ps(starts, whole);
+                    }
+                    if _mm256_movemask_ps(in_sub) != 0 {
+                        let (xm, addm) = midpoint(piece);
+                        let behind = exp_nonpositive(_mm256_sub_ps(zero, sub_x));
+                        for c in 0..3 {
+                            sub_add[c] = _mm256_blendv_ps(sub_add[c], _mm256_fmadd_ps(behind, addm[c], sub_add[c]), in_sub);
+                        }
+                        sub_x = _mm256_blendv_ps(sub_x, _mm256_add_ps(sub_x, xm), in_sub);
+                        let last = _mm256_and_ps(in_sub, as_ps(_mm256_cmpeq_epi32(sub, _mm256_set1_epi32(refine))));
+                        let next_sub = _mm256_andnot_si256(_mm256_castps_si256(last), _mm256_add_epi32(sub, onei));
+                        sub = _mm256_castps_si256(_mm256_blendv_ps(as_ps(sub), as_ps(next_sub), in_sub));
+                        again = _mm256_or_ps(again, _mm256_andnot_ps(last, in_sub));
+                        x = _mm256_and_ps(sub_x, last);
+                        add = std::array::from_fn(|c| _mm256_and_ps(sub_add[c], last));
+                    }
                     if _mm256_movemask_ps(whole) != 0 {
                         let e = table_entry(_mm256_and_ps(held_v, known), _mm256_and_ps(v, known), table);
                         let k = _mm256_mul_ps(_mm256_set1_ps(0.5), _mm256_add_ps(held_light, light));
-                        x = _mm256_and_ps(e[3], whole);
-                        add = std::array::from_fn(|c| _mm256_and_ps(_mm256_mul_ps(e[c], k), whole));
+                        x = _mm256_blendv_ps(x, e[3], whole);
+                        add = std::array::from_fn(|c| _mm256_blendv_ps(add[c], _mm256_mul_ps(e[c], k), whole));
                     }
                     let short = _mm256_andnot_ps(full, fetch);
                     if _mm256_movemask_ps(short) != 0 {
-                        let (xs, adds) = midpoint();
+                        let (xs, adds) = midpoint(seg);
                         x = _mm256_blendv_ps(x, xs, short);
                         add = std::array::from_fn(|c| _mm256_blendv_ps(add[c], adds[c], short));
                     }
@@ -451,8 +527,9 @@ pub unsafe fn march<T: Texels>(
             (x, add)
         };
 
-        // A priming segment that does not leap is marched again, now carried.
-        let again = _mm256_andnot_ps(leap, primes);
+        // A priming segment that does not leap is marched again, now
+        // carried; so is a refined one until its last sample.
+        let again = _mm256_andnot_ps(leap, _mm256_or_ps(primes, again));
         let blend = _mm256_andnot_ps(_mm256_or_ps(leap, again), active);
         // A full segment with extinction centred in a uniform cell composites
         // the segments after it in the cube of uniform cells as one

@@ -7,7 +7,7 @@
 //! and early termination) with eight rays in the lanes of AVX2 registers on
 //! every core, reading each 16-bit fixed-point texel (value and normal) in
 //! one 64-bit gather. It covers the frames most CPU-only users render:
-//! emission–absorption (plain or pre-integrated), absorption and emission
+//! emission–absorption (plain, pre-integrated or refined), absorption and emission
 //! marched front to back, exponential opacity correction, no light or a
 //! directional one lighting from normals held in the texels, with or
 //! without jitter, from a volume held in one texture. Everything else
@@ -102,6 +102,9 @@ pub struct Frame<'a> {
     /// Full segments take their (front, back) entry of this table (an
     /// emission-absorption frame's); None: the midpoint rule.
     pub preint: Option<&'a PreintTable>,
+    /// With `preint`: segments whose values may reach an opacity change
+    /// their ramp misses are taken as this many midpoint samples (0: none).
+    pub refine: u32,
 }
 
 /// What a native frame took.
@@ -162,6 +165,7 @@ pub fn render(frame: &Frame, out: &mut [[f32; 4]], stop: &mut dyn FnMut() -> boo
     if let Some(t) = frame.preint {
         assert!(t.side >= 2 && t.width >= t.side && t.texels.len() >= t.width * (t.side + 2), "pre-integration table");
         assert_eq!(frame.model, Model::EmissionAbsorption, "pre-integration tables are emission-absorption's");
+        assert!(frame.refine <= 16, "refine");
     }
     if let Texels::R16Snorm(t) = &frame.volume.texels {
         assert!(t.len() > frame.volume.dims.iter().product::<usize>(), "16-bit codes need one of padding");

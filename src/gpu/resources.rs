@@ -12,7 +12,7 @@ use crate::occupancy::{empty_radius, occupied_bounds, MinMaxGrid, SegmentRanges,
 use crate::gradients;
 use crate::preintegrate;
 use crate::scene::Bounds;
-use crate::error::try_collect;
+use crate::error::{try_collect, try_vec};
 use crate::fixed16::{normal_code, Fixed16};
 use crate::transfer::ValueMap;
 use crate::volume::{sanitize, unit_direction, Precision, VolumeView, Voxels};
@@ -47,23 +47,42 @@ pub struct VolumeGpu {
 }
 
 /// A copy of the texels for the native march: only where the adapter is a
-/// CPU (whose "device memory" is the same RAM) and the march runs there.
+/// CPU (whose "device memory" is the same RAM) and the march runs there,
+/// and only while the copy takes at most half the memory the system says
+/// is available (frames then stay on the shader): it doubles what the
+/// volume takes, and a process over its memory is killed, not told.
 fn cpu_copy(ctx: &GpuContext, format: wgpu::TextureFormat, dims: [usize; 3], bytes: &[u8]) -> Option<CpuVolume> {
     if ctx.adapter_info.device_type != wgpu::DeviceType::Cpu || !crate::cpu::available() {
         return None;
     }
+    if available_memory().is_some_and(|free| bytes.len() as u64 > free / 2) {
+        return None;
+    }
     let texels = match format {
-        wgpu::TextureFormat::Rgba32Float => Texels::Rgba32Float(bytemuck::pod_collect_to_vec(bytes)),
-        wgpu::TextureFormat::Rgba16Snorm => Texels::Rgba16Snorm(bytemuck::pod_collect_to_vec(bytes)),
-        wgpu::TextureFormat::R32Float => Texels::R32Float(bytemuck::pod_collect_to_vec(bytes)),
-        wgpu::TextureFormat::R16Snorm => {
-            let mut codes: Vec<i16> = bytemuck::pod_collect_to_vec(bytes);
-            codes.push(0);
-            Texels::R16Snorm(codes)
-        }
+        wgpu::TextureFormat::Rgba32Float => Texels::Rgba32Float(copied(bytes, 0)?),
+        wgpu::TextureFormat::Rgba16Snorm => Texels::Rgba16Snorm(copied(bytes, 0)?),
+        wgpu::TextureFormat::R32Float => Texels::R32Float(copied(bytes, 0)?),
+        wgpu::TextureFormat::R16Snorm => Texels::R16Snorm(copied(bytes, 1)?),
         _ => return None,
     };
     Some(CpuVolume { texels, dims })
+}
+
+/// `bytes` as texels of type T, then `extra` zero texels; None where the
+/// memory cannot be had.
+fn copied<T: bytemuck::Pod>(bytes: &[u8], extra: usize) -> Option<Vec<T>> {
+    let n = bytes.len() / std::mem::size_of::<T>();
+    let mut v = try_vec(n + extra, T::zeroed(), "the native march's texels").ok()?;
+    bytemuck::cast_slice_mut::<T, u8>(&mut v[..n]).copy_from_slice(&bytes[..n * std::mem::size_of::<T>()]);
+    Some(v)
+}
+
+/// Memory the system can give without swapping (Linux's MemAvailable), if known.
+fn available_memory() -> Option<u64> {
+    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = info.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
 }
 
 impl VolumeGpu {

@@ -87,7 +87,6 @@ impl GpuRenderer {
             && model
             && !variant.back_to_front
             && (!variant.pre_integrated || variant.model == Model::EmissionAbsorption)
-            && variant.refine == 0
             && !variant.unbiased
             && !variant.point_light
             && variant.correction == OpacityCorrection::Exponential
@@ -114,6 +113,7 @@ impl GpuRenderer {
                 _ => crate::cpu::Model::EmissionAbsorption,
             },
             preint: variant.pre_integrated.then_some(&self.tables.preint_texels),
+            refine: if variant.pre_integrated { variant.refine } else { 0 },
         };
         let s = crate::cpu::render(&frame, bytemuck::cast_slice_mut(out), stop).map_err(|_| Error::Interrupted)?;
         let stats = FrameStats { truncated_needed: s.truncated_needed, uploaded_bytes: 0, passes: 1, samples: s.samples, native: true };
