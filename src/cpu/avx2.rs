@@ -13,10 +13,14 @@ use std::sync::atomic::{AtomicBool, Ordering};
 /// planes (in the storage's units) and the trilinear weights give eight
 /// lanes' interpolated (value, normal); the normal is 0 where none is held.
 pub trait Texels {
-    /// Offsets of one voxel step along each numpy axis.
-    fn strides(&self, dims: [usize; 3]) -> [i32; 3];
+    /// Gather units (the offsets' scale) per texel.
+    const PER_TEXEL: usize;
     /// What one unit of the interpolated value channel stands for.
-    fn value_unit(&self) -> f32;
+    const VALUE_UNIT: f32;
+    /// Offsets of one voxel step along each numpy axis.
+    fn strides(&self, dims: [usize; 3]) -> [i32; 3] {
+        numpy_strides(dims, Self::PER_TEXEL)
+    }
     /// # Safety
     /// Needs AVX2 and FMA; every offset must address a texel.
     unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4];
@@ -54,12 +58,8 @@ fn numpy_strides([_, d1, d2]: [usize; 3], per_texel: usize) -> [i32; 3] {
 pub struct Rgba32Float<'a>(pub &'a [[f32; 4]]);
 
 impl Texels for Rgba32Float<'_> {
-    fn strides(&self, dims: [usize; 3]) -> [i32; 3] {
-        numpy_strides(dims, 4)
-    }
-    fn value_unit(&self) -> f32 {
-        1.0
-    }
+    const PER_TEXEL: usize = 4;
+    const VALUE_UNIT: f32 = 1.0;
     #[inline]
     #[target_feature(enable = "avx2,fma")]
     unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4] {
@@ -76,12 +76,8 @@ impl Texels for Rgba32Float<'_> {
 pub struct Rgba16Snorm<'a>(pub &'a [[i16; 4]]);
 
 impl Texels for Rgba16Snorm<'_> {
-    fn strides(&self, dims: [usize; 3]) -> [i32; 3] {
-        numpy_strides(dims, 1)
-    }
-    fn value_unit(&self) -> f32 {
-        1.0 / crate::fixed16::CODE_MAX as f32
-    }
+    const PER_TEXEL: usize = 1;
+    const VALUE_UNIT: f32 = 1.0 / crate::fixed16::CODE_MAX as f32;
     #[inline]
     #[target_feature(enable = "avx2,fma")]
     unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4] {
@@ -111,12 +107,8 @@ impl Texels for Rgba16Snorm<'_> {
 pub struct R32Float<'a>(pub &'a [f32]);
 
 impl Texels for R32Float<'_> {
-    fn strides(&self, dims: [usize; 3]) -> [i32; 3] {
-        numpy_strides(dims, 1)
-    }
-    fn value_unit(&self) -> f32 {
-        1.0
-    }
+    const PER_TEXEL: usize = 1;
+    const VALUE_UNIT: f32 = 1.0;
     #[inline]
     #[target_feature(enable = "avx2,fma")]
     unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4] {
@@ -133,12 +125,8 @@ impl Texels for R32Float<'_> {
 pub struct R16Snorm<'a>(pub &'a [i16]);
 
 impl Texels for R16Snorm<'_> {
-    fn strides(&self, dims: [usize; 3]) -> [i32; 3] {
-        numpy_strides(dims, 1)
-    }
-    fn value_unit(&self) -> f32 {
-        1.0 / crate::fixed16::CODE_MAX as f32
-    }
+    const PER_TEXEL: usize = 1;
+    const VALUE_UNIT: f32 = 1.0 / crate::fixed16::CODE_MAX as f32;
     #[inline]
     #[target_feature(enable = "avx2,fma")]
     unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4] {
@@ -227,7 +215,7 @@ pub unsafe fn march<T: Texels>(
     let first_len = _mm256_min_ps(_mm256_mul_ps(_mm256_add_ps(one, shift), h), chord);
     let hi: [__m256i; 3] = dims.map(|d| _mm256_set1_epi32(d as i32 - 1));
     let stride = tex.strides(dims).map(|s| _mm256_set1_epi32(s));
-    let value_scale = _mm256_set1_ps(p.value_scale * tex.value_unit());
+    let value_scale = _mm256_set1_ps(p.value_scale * T::VALUE_UNIT);
     let value_offset = _mm256_set1_ps(p.value_offset);
     let m = f.lut.len();
     let lut_scale = _mm256_set1_ps((m - 1) as f32);

@@ -7,12 +7,12 @@
 //! and early termination) with eight rays in the lanes of AVX2 registers on
 //! every core, reading each 16-bit fixed-point texel (value and normal) in
 //! one 64-bit gather. It covers the frames most CPU-only users render:
-//! emission–absorption (plain, pre-integrated or refined), absorption and emission
-//! marched front to back, exponential opacity correction, no light or a
-//! directional one lighting from normals held in the texels, with or
-//! without jitter, from a volume held in one texture. Everything else
-//! stays on the GPU path, whose images these match
-//! (tests/test_native_march.py).
+//! emission–absorption (plain, pre-integrated or refined), absorption and
+//! emission marched front to back, exponential opacity correction, no
+//! light or a directional one lighting from normals (or gradients) held in
+//! the texels, with or without jitter, skipping and uniform runs, from a
+//! volume held in one texture. Everything else stays on the GPU path,
+//! whose images these match (tests/test_native_march.py).
 
 #[cfg(target_arch = "x86_64")]
 mod avx2;
@@ -44,16 +44,6 @@ impl CpuVolume {
     /// Whether each texel holds a normal (or gradient) beside its value.
     pub fn has_normals(&self) -> bool {
         matches!(self.texels, Texels::Rgba32Float(_) | Texels::Rgba16Snorm(_))
-    }
-
-    pub fn bytes(&self) -> u64 {
-        let n = self.dims.iter().product::<usize>() as u64;
-        n * match self.texels {
-            Texels::Rgba32Float(_) => 16,
-            Texels::Rgba16Snorm(_) => 8,
-            Texels::R32Float(_) => 4,
-            Texels::R16Snorm(_) => 2,
-        }
     }
 }
 

@@ -1,0 +1,78 @@
+//! The native CPU march (src/cpu) renders the shader's frame: where the
+//! adapter is a CPU with AVX2 and FMA, each storage it reads and each kind
+//! of segment it takes, rendered both ways, agree within 0.25 level with
+//! the same samples (tests/test_native_march.py covers the options and
+//! scenes; this keeps `cargo test` on the native path too). Elsewhere the
+//! renderer must never take it.
+
+use glam::DVec3;
+use pyvr_core::config::RenderConfig;
+use pyvr_core::gpu::GpuRenderer;
+use pyvr_core::scene::{Bounds, Camera, Light};
+use pyvr_core::volume::{Precision, VolumeView, Voxels};
+
+/// A ball whose values fall from 1 at its centre, and its gradient.
+fn ball(n: usize) -> (Vec<f32>, Vec<f32>) {
+    let c = (n as f32 - 1.0) / 2.0;
+    let mut values = Vec::with_capacity(n * n * n);
+    let mut normals = Vec::with_capacity(3 * n * n * n);
+    for i in 0..n {
+        for j in 0..n {
+            for k in 0..n {
+                let p = [i, j, k].map(|x| (x as f32 - c) / c);
+                let r2 = p.iter().map(|x| x * x).sum::<f32>();
+                values.push((-3.0 * r2).exp());
+                normals.extend(p.map(|x| -x));
+            }
+        }
+    }
+    (values, normals)
+}
+
+#[test]
+fn the_native_march_renders_the_shaders_frame() {
+    let n = 28;
+    let (values, normals) = ball(n);
+    let bounds = Bounds::new(DVec3::new(-1.0, -0.8, -0.9), DVec3::new(1.0, 0.8, 0.9)).unwrap();
+    let vol = VolumeView::new([n; 3], Voxels::F32(&values), Some(&normals), bounds).unwrap();
+    let lut: Vec<[f32; 4]> = (0..128)
+        .map(|m| {
+            let x = m as f32 / 127.0;
+            [x, 1.0 - x, 0.5, if x > 0.2 { 0.6 * (x - 0.2) } else { 0.0 }]
+        })
+        .collect();
+    let camera = Camera { position: DVec3::new(2.2, 1.4, 1.1), target: DVec3::ZERO, up: DVec3::Z, fov_y: 0.8 };
+    let light = Light::default();
+    let mut r = GpuRenderer::new(40, 36).unwrap();
+    r.set_lut(&lut).unwrap();
+    let cpu_adapter = r.context().describe().contains("Cpu");
+    let plain = RenderConfig::default();
+    let configs = [
+        plain.clone(),
+        RenderConfig { pre_integrated: true, ..plain.clone() },
+        RenderConfig { pre_integrated: true, refine: 8, step_size: 0.03, ..plain.clone() },
+    ];
+    let mut native_frames = 0;
+    for precision in [Precision::Float32, Precision::Fixed16] {
+        r.set_volume_with_precision(&vol, precision).unwrap();
+        for cfg in &configs {
+            r.native_march = false;
+            let (shader, s) = r.render(&camera, &light, cfg).unwrap();
+            assert!(!s.native);
+            r.native_march = true;
+            let (native, t) = r.render(&camera, &light, cfg).unwrap();
+            if !t.native {
+                assert!(!(cpu_adapter && pyvr_core::cpu::available()), "a CPU adapter with AVX2 must take the native march");
+                continue;
+            }
+            native_frames += 1;
+            assert!(shader.iter().cloned().fold(0.0, f32::max) > 0.05, "the scene must show something");
+            let diff = native.iter().zip(&shader).map(|(a, b)| (a - b).abs()).fold(0.0, f32::max) * 255.0;
+            assert!(diff < 0.25, "{precision:?}, {cfg:?}: {diff} levels");
+            assert!(s.samples.abs_diff(t.samples) as f64 <= 1e-4 * s.samples as f64 + 2.0, "{} vs {}", s.samples, t.samples);
+        }
+    }
+    if cpu_adapter && pyvr_core::cpu::available() {
+        assert_eq!(native_frames, 6);
+    }
+}
