@@ -58,6 +58,16 @@ fn cpu_copy(ctx: &GpuContext, format: wgpu::TextureFormat, dims: [usize; 3], byt
     if available_memory().is_some_and(|free| bytes.len() as u64 > free / 2) {
         return None;
     }
+    // The march gathers with 32-bit signed offsets: floats for float32
+    // texels, whole texels otherwise.
+    let units = match format {
+        wgpu::TextureFormat::Rgba32Float | wgpu::TextureFormat::R32Float => bytes.len() / 4,
+        wgpu::TextureFormat::Rgba16Snorm => bytes.len() / 8,
+        _ => bytes.len() / 2,
+    };
+    if units >= i32::MAX as usize {
+        return None;
+    }
     let texels = match format {
         wgpu::TextureFormat::Rgba32Float => Texels::Rgba32Float(copied(bytes, 0)?),
         wgpu::TextureFormat::Rgba16Snorm => Texels::Rgba16Snorm(copied(bytes, 0)?),
