@@ -3,11 +3,11 @@
 //! until every lane's ray is done.
 
 use super::{Frame, Model, Ray, Stats, CELL, TILE};
+use std::arch::x86_64::*;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// compositing.wgsl's REFINE_EPS.
 const REFINE_EPS: f32 = crate::preintegrate::REFINE_OPACITY_CHANGE as f32;
-use std::arch::x86_64::*;
-use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Where a march reads its texels: the offsets of each axis's two corner
 /// planes (in the storage's units) and the trilinear weights give eight
@@ -49,6 +49,14 @@ fn interpolate<const C: usize>(
         mix(row(offs[1][0]), row(offs[1][1]), w[1])
     };
     mix(plane(offs[0][0]), plane(offs[0][1]), w[0])
+}
+
+/// A value-only storage's texel: no normal.
+#[inline]
+#[target_feature(enable = "avx2,fma")]
+fn value_only(v: __m256) -> [__m256; 4] {
+    let zero = _mm256_setzero_ps();
+    [v, zero, zero, zero]
 }
 
 fn numpy_strides([_, d1, d2]: [usize; 3], per_texel: usize) -> [i32; 3] {
@@ -115,8 +123,7 @@ impl Texels for R32Float<'_> {
         let base = self.0.as_ptr();
         // SAFETY: offsets address texels (the caller's contract).
         let [v] = interpolate(offs, w, |o| [unsafe { _mm256_i32gather_ps::<4>(base, o) }]);
-        let zero = _mm256_setzero_ps();
-        [v, zero, zero, zero]
+        value_only(v)
     }
 }
 
@@ -136,8 +143,7 @@ impl Texels for R16Snorm<'_> {
             let x = unsafe { _mm256_i32gather_epi32::<2>(base, o) };
             [_mm256_cvtepi32_ps(_mm256_srai_epi32::<16>(_mm256_slli_epi32::<16>(x)))]
         });
-        let zero = _mm256_setzero_ps();
-        [v, zero, zero, zero]
+        value_only(v)
     }
 }
 
@@ -611,10 +617,8 @@ pub unsafe fn march<T: Texels>(
             0.0
         } else if lanes_out[4][l] == 0.0 {
             1.0
-        } else if tau < 1e-3 {
-            tau * (1.0 - tau * (0.5 - tau * (1.0 / 6.0)))
         } else {
-            1.0 - (-tau).exp()
+            crate::integrate::one_minus_exp_neg(tau as f64) as f32
         };
         out[l] = [lanes_out[0][l], lanes_out[1][l], lanes_out[2][l], alpha];
     }

@@ -207,7 +207,10 @@ pub fn render(frame: &Frame, out: &mut [[f32; 4]], stop: &mut dyn FnMut() -> boo
             }
             std::thread::park_timeout(std::time::Duration::from_millis(10));
         }
-        workers.into_iter().map(|t| t.join().unwrap_or_default()).fold(Stats::default(), |a, b| Stats {
+        // A worker's panic goes on in this thread (the binding turns it into
+        // an exception) rather than leaving its tiles unwritten.
+        let joined = workers.into_iter().map(|t| t.join().unwrap_or_else(|e| std::panic::resume_unwind(e)));
+        joined.fold(Stats::default(), |a, b| Stats {
             samples: a.samples + b.samples,
             truncated_needed: a.truncated_needed.max(b.truncated_needed),
         })
