@@ -2,7 +2,7 @@
 //! segment index, leaping or compositing as the shader's invocation would,
 //! until every lane's ray is done.
 
-use super::{Frame, Model, Ray, Stats, CELL, TILE};
+use super::{Frame, Model, Stats, CELL, TILE};
 use std::arch::x86_64::*;
 use std::sync::atomic::{AtomicBool, Ordering};
 
@@ -175,7 +175,7 @@ fn one_minus_exp_neg(x: __m256) -> __m256 {
     _mm256_blendv_ps(full, series, _mm256_cmp_ps::<_CMP_LT_OQ>(x, _mm256_set1_ps(1e-3)))
 }
 
-/// The eight rays of `rays` (None: no ray; its pixel stays transparent).
+/// Pixels col0..col0 + 8 of `row` (those without a ray stay transparent).
 ///
 /// Stops early (its pixels then are garbage) once `halt` is set.
 ///
@@ -186,33 +186,27 @@ fn one_minus_exp_neg(x: __m256) -> __m256 {
 pub unsafe fn march<T: Texels>(
     f: &Frame,
     tex: &T,
-    rays: &[Option<Ray>; TILE],
+    col0: u32,
+    row: u32,
     out: &mut [[f32; 4]; TILE],
     halt: &AtomicBool,
 ) -> Stats {
     let p = f.params;
     let dims = f.volume.dims;
-    let lanes = |g: &dyn Fn(&Ray) -> f32| -> __m256 {
-        let a: [f32; 8] = std::array::from_fn(|l| rays[l].as_ref().map_or(0.0, g));
-        _mm256_loadu_ps(a.as_ptr())
-    };
-    let lanes_i = |g: &dyn Fn(&Ray) -> u32| -> __m256i {
-        let a: [i32; 8] = std::array::from_fn(|l| rays[l].as_ref().map_or(0, |r| g(r) as i32));
-        _mm256_loadu_si256(a.as_ptr() as *const __m256i)
-    };
+    let rays = super::rays8::rays(f, col0, row);
+    let set = _mm256_set1_ps;
     // Cell-centred voxel coordinates along each numpy axis at the chord's
     // start, and per unit of ray parameter.
     let start: [__m256; 3] = std::array::from_fn(|k| {
-        lanes(&|r| ((p.cam_pos[k] + r.d[k] * r.t0) * p.tex_scale[k] + p.tex_offset[k]) * dims[k] as f32 - 0.5)
+        let at = _mm256_add_ps(set(p.cam_pos[k]), _mm256_mul_ps(rays.d[k], rays.t0));
+        let tc = _mm256_add_ps(_mm256_mul_ps(at, set(p.tex_scale[k])), set(p.tex_offset[k]));
+        _mm256_sub_ps(_mm256_mul_ps(tc, set(dims[k] as f32)), set(0.5))
     });
-    let per: [__m256; 3] = std::array::from_fn(|k| lanes(&|r| r.d[k] * p.tex_scale[k] * dims[k] as f32));
+    let per: [__m256; 3] = std::array::from_fn(|k| _mm256_mul_ps(_mm256_mul_ps(rays.d[k], set(p.tex_scale[k])), set(dims[k] as f32)));
     let moving: [__m256; 3] = std::array::from_fn(|k| _mm256_cmp_ps::<_CMP_NEQ_OQ>(per[k], _mm256_setzero_ps()));
     let ahead: [__m256; 3] = std::array::from_fn(|k| _mm256_cmp_ps::<_CMP_GT_OQ>(per[k], _mm256_setzero_ps()));
-    let shift = lanes(&|r| r.shift);
-    let chord = lanes(&|r| r.chord);
-    let n = lanes_i(&|r| r.n);
-    let limit = lanes_i(&|r| r.window.1);
-    let mut i = lanes_i(&|r| r.window.0);
+    let (shift, chord, n, limit) = (rays.shift, rays.chord, rays.n, rays.hi);
+    let mut i = rays.lo;
 
     let (zero, one) = (_mm256_setzero_ps(), _mm256_set1_ps(1.0));
     let (zi, onei) = (_mm256_setzero_si256(), _mm256_set1_epi32(1));
@@ -592,25 +586,30 @@ pub unsafe fn march<T: Texels>(
         active = _mm256_andnot_ps(stopped, _mm256_and_ps(active, as_ps(_mm256_cmpgt_epi32(limit, i))));
     }
 
-    let mut lanes_out = [[0f32; 8]; 9];
+    let mut lanes_out = [[0f32; 8]; 7];
     for c in 0..3 {
         _mm256_storeu_ps(lanes_out[c].as_mut_ptr(), _mm256_add_ps(color[c], color_b[c]));
     }
     _mm256_storeu_ps(lanes_out[3].as_mut_ptr(), _mm256_add_ps(tau, tau_b));
     _mm256_storeu_ps(lanes_out[4].as_mut_ptr(), trans);
     _mm256_storeu_ps(lanes_out[5].as_mut_ptr(), stopped);
-    let mut counts = [0i32; 8];
+    let (mut counts, mut steps_n) = ([0i32; 8], [0i32; 8]);
     _mm256_storeu_si256(counts.as_mut_ptr() as *mut __m256i, taken);
+    _mm256_storeu_si256(steps_n.as_mut_ptr() as *mut __m256i, n);
+    _mm256_storeu_ps(lanes_out[6].as_mut_ptr(), rays.needed);
+    let hits = _mm256_movemask_ps(rays.hit);
     let mut stats = Stats::default();
     for l in 0..TILE {
-        let Some(r) = &rays[l] else {
+        if hits & (1 << l) == 0 {
             out[l] = [0.0; 4];
             continue;
-        };
+        }
         stats.samples += counts[l] as u64;
         let was_stopped = lanes_out[5][l].to_bits() != 0;
-        if !was_stopped && r.n < r.needed {
-            stats.truncated_needed = stats.truncated_needed.max(r.needed);
+        // (`as u32` saturates, as the scalar rule's conversion does.)
+        let needed = lanes_out[6][l] as u32;
+        if !was_stopped && (steps_n[l] as u32) < needed {
+            stats.truncated_needed = stats.truncated_needed.max(needed);
         }
         let tau = lanes_out[3][l];
         let alpha = if emission {

@@ -16,6 +16,8 @@
 
 #[cfg(target_arch = "x86_64")]
 mod avx2;
+#[cfg(target_arch = "x86_64")]
+mod rays8;
 
 use crate::gpu::params::Params;
 use crate::occupancy::BLOCK;
@@ -228,25 +230,21 @@ pub const MAX_STEPS: u32 = 1 << 30;
 /// Eight pixels of one row from column `col0` (those past the image's
 /// right edge are left transparent).
 fn march_row(frame: &Frame, col0: u32, row: u32, out: &mut [[f32; 4]; TILE], halt: &AtomicBool) -> Stats {
-    let rays: [Option<Ray>; TILE] = std::array::from_fn(|l| {
-        let col = col0 + l as u32;
-        (col < frame.params.width).then(|| Ray::new(frame, col, row)).flatten()
-    });
     #[cfg(target_arch = "x86_64")]
     {
         // SAFETY: `render` checked AVX2 and FMA and the paddings.
         unsafe {
             match &frame.volume.texels {
-                Texels::Rgba32Float(t) => avx2::march(frame, &avx2::Rgba32Float(t), &rays, out, halt),
-                Texels::Rgba16Snorm(t) => avx2::march(frame, &avx2::Rgba16Snorm(t), &rays, out, halt),
-                Texels::R32Float(t) => avx2::march(frame, &avx2::R32Float(t), &rays, out, halt),
-                Texels::R16Snorm(t) => avx2::march(frame, &avx2::R16Snorm(t), &rays, out, halt),
+                Texels::Rgba32Float(t) => avx2::march(frame, &avx2::Rgba32Float(t), col0, row, out, halt),
+                Texels::Rgba16Snorm(t) => avx2::march(frame, &avx2::Rgba16Snorm(t), col0, row, out, halt),
+                Texels::R32Float(t) => avx2::march(frame, &avx2::R32Float(t), col0, row, out, halt),
+                Texels::R16Snorm(t) => avx2::march(frame, &avx2::R16Snorm(t), col0, row, out, halt),
             }
         }
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
-        let _ = (rays, out, halt);
+        let _ = (frame, col0, row, out, halt);
         unreachable!("available() is false off x86-64")
     }
 }
@@ -254,6 +252,9 @@ fn march_row(frame: &Frame, col0: u32, row: u32, out: &mut [[f32; 4]; TILE], hal
 /// One pixel's ray as main.wgsl builds it: its chord through the (cropped)
 /// box, segment grid and step count, and the window of segments whose
 /// midpoints may lie in occupied cells (skipping.wgsl `occupied_window`).
+/// The march builds eight at a time (`rays8`), held to this statement of
+/// the rule, one ray at a time, by its test.
+#[cfg(test)]
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Ray {
     pub d: [f32; 3],
@@ -266,8 +267,9 @@ pub(crate) struct Ray {
     pub window: (u32, u32),
 }
 
+#[cfg(test)]
 impl Ray {
-    fn new(frame: &Frame, col: u32, row: u32) -> Option<Ray> {
+    pub(crate) fn new(frame: &Frame, col: u32, row: u32) -> Option<Ray> {
         let p = frame.params;
         let ndc = [2.0 * (col as f32 + 0.5) / p.width as f32 - 1.0, 2.0 * (row as f32 + 0.5) / p.height as f32 - 1.0];
         let mut d = [0f32; 3];

@@ -1,0 +1,267 @@
+//! The eight rays of a row of a tile, built in the lanes of AVX2 registers.
+//!
+//! A frame builds one ray per pixel, and built one at a time (a square root
+//! and a dozen divisions in a chain) that took about as long as marching a
+//! small scene's samples. Here every operation is the scalar rule's
+//! (`super::Ray`, which the test below holds these lanes to bit for bit) on
+//! eight pixels at once, in the same order and without fused multiply-adds.
+
+use super::{Frame, TILE};
+use std::arch::x86_64::*;
+
+/// Lane l holds pixel (col0 + l, row)'s ray; lanes without one (off the
+/// image or missing the box) have an empty window and zero geometry.
+pub struct Rays {
+    pub d: [__m256; 3],
+    pub t0: __m256,
+    pub chord: __m256,
+    pub shift: __m256,
+    pub n: __m256i,
+    /// The steps each ray needs (as a float: up to 4e9).
+    pub needed: __m256,
+    /// Segments [lo, hi) are marched.
+    pub lo: __m256i,
+    pub hi: __m256i,
+    /// All bits set where the lane has a ray.
+    pub hit: __m256,
+}
+
+/// model::jitter_shift in eight lanes.
+#[inline]
+#[target_feature(enable = "avx2,fma")]
+fn jitter_shift(cols: __m256i, row: u32, seed: u32) -> __m256 {
+    let hash = |mut x: __m256i| {
+        x = _mm256_xor_si256(x, _mm256_srli_epi32::<16>(x));
+        x = _mm256_mullo_epi32(x, _mm256_set1_epi32(0x7feb_352d));
+        x = _mm256_xor_si256(x, _mm256_srli_epi32::<15>(x));
+        x = _mm256_mullo_epi32(x, _mm256_set1_epi32(0x846c_a68b_u32 as i32));
+        _mm256_xor_si256(x, _mm256_srli_epi32::<16>(x))
+    };
+    let inner = crate::model::hash32(row ^ crate::model::hash32(seed));
+    let h = hash(_mm256_xor_si256(cols, _mm256_set1_epi32(inner as i32)));
+    let unit = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_srli_epi32::<8>(h)), _mm256_set1_ps(1.0 / 16_777_216.0));
+    _mm256_xor_ps(unit, _mm256_set1_ps(-0.0))
+}
+
+/// The rays of pixels col0..col0 + 8 of `row`.
+///
+/// # Safety
+/// Needs AVX2 and FMA.
+#[target_feature(enable = "avx2,fma")]
+pub unsafe fn rays(frame: &Frame, col0: u32, row: u32) -> Rays {
+    let p = frame.params;
+    let set = _mm256_set1_ps;
+    let (zero, one) = (_mm256_setzero_ps(), set(1.0));
+    let lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    let cols = _mm256_add_epi32(_mm256_set1_epi32(col0 as i32), lane);
+    let in_image = _mm256_cmpgt_epi32(_mm256_set1_epi32(p.width.min(i32::MAX as u32) as i32), cols);
+    let mut hit = _mm256_castsi256_ps(in_image);
+    let ndc_x = _mm256_sub_ps(
+        _mm256_div_ps(_mm256_mul_ps(set(2.0), _mm256_add_ps(_mm256_cvtepi32_ps(cols), set(0.5))), set(p.width as f32)),
+        one,
+    );
+    let ndc_y = set(2.0 * (row as f32 + 0.5) / p.height as f32 - 1.0);
+    let mut d: [__m256; 3] = std::array::from_fn(|a| {
+        _mm256_add_ps(
+            _mm256_add_ps(set(p.cam_fwd[a]), _mm256_mul_ps(ndc_x, set(p.cam_right[a]))),
+            _mm256_mul_ps(ndc_y, set(p.cam_up[a])),
+        )
+    });
+    let len = _mm256_sqrt_ps(_mm256_add_ps(
+        _mm256_add_ps(_mm256_mul_ps(d[0], d[0]), _mm256_mul_ps(d[1], d[1])),
+        _mm256_mul_ps(d[2], d[2]),
+    ));
+    d = d.map(|c| _mm256_div_ps(c, len));
+    let (mut t0, mut t1) = (set(-3.0e38), set(3.0e38));
+    for a in 0..3 {
+        let o = p.cam_pos[a];
+        // A ray parallel to an axis's planes meets the box only from between them.
+        let flat = _mm256_cmp_ps::<_CMP_EQ_OQ>(d[a], zero);
+        if o < p.clip_lo[a] || o > p.clip_hi[a] {
+            hit = _mm256_andnot_ps(flat, hit);
+        }
+        let inv = _mm256_div_ps(one, d[a]);
+        let ta = _mm256_mul_ps(_mm256_sub_ps(set(p.clip_lo[a]), set(o)), inv);
+        let tb = _mm256_mul_ps(_mm256_sub_ps(set(p.clip_hi[a]), set(o)), inv);
+        t0 = _mm256_blendv_ps(_mm256_max_ps(_mm256_min_ps(ta, tb), t0), t0, flat);
+        t1 = _mm256_blendv_ps(_mm256_min_ps(_mm256_max_ps(ta, tb), t1), t1, flat);
+    }
+    let misses = _mm256_or_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(t0, t1), _mm256_cmp_ps::<_CMP_LE_OQ>(t1, zero));
+    hit = _mm256_andnot_ps(misses, hit);
+    // (max with the second operand 0 also reads NaN as 0, as f32::max does.)
+    let t0 = _mm256_max_ps(t0, zero);
+    let chord = _mm256_sub_ps(t1, t0);
+    let shift = if frame.jitter { jitter_shift(cols, row, p.jitter_seed) } else { zero };
+    let h = set(p.step_size);
+    let needed = _mm256_min_ps(_mm256_ceil_ps(_mm256_sub_ps(_mm256_div_ps(chord, h), shift)), set(4.0e9));
+    // Clamped to [0, 2^30] (exact in f32, at least max_steps) before the
+    // integer conversion, as `as u32` saturates.
+    let needed_i = _mm256_cvttps_epi32(_mm256_min_ps(_mm256_max_ps(needed, zero), set(super::MAX_STEPS as f32)));
+    let hit_i = _mm256_castps_si256(hit);
+    let n = _mm256_and_si256(_mm256_min_epi32(needed_i, _mm256_set1_epi32(p.max_steps as i32)), hit_i);
+    let (lo, hi) = if frame.skip_empty && p.bricked != 1 && p.occupied_hi[3] == 1.0 {
+        occupied_window(frame, &d, t0, chord, shift, n)
+    } else {
+        (_mm256_setzero_si256(), n)
+    };
+    let keep = |x: __m256| _mm256_and_ps(x, hit);
+    Rays {
+        d: d.map(keep),
+        t0: keep(t0),
+        chord: keep(chord),
+        shift: keep(shift),
+        n,
+        needed: keep(needed),
+        lo: _mm256_and_si256(lo, hit_i),
+        hi: _mm256_and_si256(hi, hit_i),
+        hit,
+    }
+}
+
+/// skipping.wgsl `occupied_window` (`super::Ray::occupied_window`).
+#[inline]
+#[target_feature(enable = "avx2,fma")]
+fn occupied_window(frame: &Frame, d: &[__m256; 3], t0: __m256, chord: __m256, shift: __m256, n: __m256i) -> (__m256i, __m256i) {
+    let p = frame.params;
+    let set = _mm256_set1_ps;
+    let zero = _mm256_setzero_ps();
+    let dims = frame.volume.dims;
+    let (mut a, mut b, mut outside) = (zero, chord, zero);
+    for k in 0..3 {
+        // The block's boxes are in texture axis order: numpy axis k is texture axis 2 - k.
+        let (lo, hi) = (set(p.occupied_lo[2 - k]), set(p.occupied_hi[2 - k]));
+        let size = set(dims[k] as f32);
+        let tc = _mm256_add_ps(
+            _mm256_mul_ps(_mm256_add_ps(set(p.cam_pos[k]), _mm256_mul_ps(d[k], t0)), set(p.tex_scale[k])),
+            set(p.tex_offset[k]),
+        );
+        let u0 = _mm256_sub_ps(_mm256_mul_ps(tc, size), set(p.border as f32));
+        let du = _mm256_mul_ps(_mm256_mul_ps(d[k], set(p.tex_scale[k])), size);
+        let flat = _mm256_cmp_ps::<_CMP_EQ_OQ>(du, zero);
+        let beyond = _mm256_or_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(u0, lo), _mm256_cmp_ps::<_CMP_GT_OQ>(u0, hi));
+        outside = _mm256_or_ps(outside, _mm256_and_ps(flat, beyond));
+        let ta = _mm256_div_ps(_mm256_sub_ps(lo, u0), du);
+        let tb = _mm256_div_ps(_mm256_sub_ps(hi, u0), du);
+        a = _mm256_blendv_ps(_mm256_max_ps(_mm256_min_ps(ta, tb), a), a, flat);
+        b = _mm256_blendv_ps(_mm256_min_ps(_mm256_max_ps(ta, tb), b), b, flat);
+    }
+    outside = _mm256_or_ps(outside, _mm256_cmp_ps::<_CMP_NGE_UQ>(b, a));
+    let h = set(p.step_size);
+    let nf = _mm256_cvtepi32_ps(n);
+    let clamp = |x: __m256| _mm256_cvttps_epi32(_mm256_min_ps(_mm256_max_ps(x, zero), nf));
+    let lo_f = _mm256_sub_ps(_mm256_sub_ps(_mm256_sub_ps(_mm256_div_ps(a, h), set(0.5)), shift), set(1e-3));
+    let mut lo = clamp(_mm256_ceil_ps(lo_f));
+    let hi_f = _mm256_add_ps(_mm256_sub_ps(_mm256_sub_ps(_mm256_div_ps(b, h), set(0.5)), shift), set(1e-3));
+    let mut hi = clamp(_mm256_add_ps(_mm256_floor_ps(hi_f), set(1.0)));
+    let onei = _mm256_set1_epi32(1);
+    // A window starting at segment 0 or 1 starts at 0; one ending at the
+    // last segment or the one before it ends at n.
+    lo = _mm256_andnot_si256(_mm256_cmpgt_epi32(_mm256_add_epi32(onei, onei), lo), lo);
+    let to_end = _mm256_cmpgt_epi32(_mm256_add_epi32(hi, _mm256_add_epi32(onei, onei)), n);
+    hi = _mm256_blendv_epi8(hi, n, to_end);
+    let inside = _mm256_castps_si256(_mm256_xor_ps(outside, _mm256_castsi256_ps(_mm256_set1_epi32(-1))));
+    (_mm256_and_si256(lo, inside), _mm256_and_si256(hi, inside))
+}
+
+const _: () = assert!(TILE == 8, "eight rays fill an AVX2 register");
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cpu::{CpuVolume, Model, Ray, Texels};
+    use crate::gpu::params::Params;
+
+    /// A number in [lo, hi) from a counter.
+    fn pick(k: &mut u32, lo: f32, hi: f32) -> f32 {
+        *k += 1;
+        lo + (hi - lo) * (crate::model::hash32(*k) >> 8) as f32 / 16_777_216.0
+    }
+
+    /// Every lane equals the scalar rule's ray bit for bit, over cameras
+    /// outside, inside and grazing the box, an axis-aligned one whose middle
+    /// column's rays are parallel to two faces, crops, jitter, truncation
+    /// and occupied windows.
+    #[test]
+    fn lanes_are_the_scalar_rays() {
+        if !crate::cpu::available() {
+            return;
+        }
+        let volume = CpuVolume { texels: Texels::R32Float(vec![0.0; 8]), dims: [11, 6, 8] };
+        let mut k = 0u32;
+        let (mut compared, mut missed, mut truncated, mut windowed) = (0, 0, 0, 0);
+        for case in 0..60 {
+            let v4 = |x: [f32; 3]| [x[0], x[1], x[2], 0.0];
+            let mut p = Params { width: 37, height: 21, border: (case % 2) as u32, jitter_seed: case, ..Default::default() };
+            let ext = [1.0, 0.6, 0.8];
+            let pos: [f32; 3] = match case % 3 {
+                0 => std::array::from_fn(|_| pick(&mut k, -1.5, 2.5)),
+                1 => std::array::from_fn(|a| pick(&mut k, 0.1, ext[a] - 0.1)),
+                _ => [0.5, 0.3, 3.0],
+            };
+            let target: [f32; 3] = std::array::from_fn(|a| pick(&mut k, 0.3, 0.7) * ext[a]);
+            let fwd = if case % 3 == 2 { [0.0, 0.0, -1.0] } else { (glam::Vec3::from(target) - glam::Vec3::from(pos)).normalize().into() };
+            let f = glam::Vec3::from(fwd);
+            let right = f.cross(if f.z.abs() > 0.9 { glam::Vec3::Y } else { glam::Vec3::Z }).normalize();
+            let up = right.cross(f);
+            p.cam_pos = v4(pos);
+            p.cam_fwd = v4(fwd);
+            p.cam_right = v4((right * 0.6).into());
+            p.cam_up = v4((up * 0.4).into());
+            p.step_size = pick(&mut k, 0.003, 0.1);
+            p.max_steps = if case % 4 == 0 { 7 } else { 100_000 };
+            let crop = case % 5 == 0;
+            p.clip_lo = v4(std::array::from_fn(|a| if crop { 0.2 * ext[a] } else { 0.0 }));
+            p.clip_hi = v4(std::array::from_fn(|a| if crop { 0.9 * ext[a] } else { ext[a] }));
+            p.tex_scale = v4(ext.map(|e| 1.0 / e));
+            // Occupied voxels in texture axis order.
+            p.occupied_lo = [1.5, 0.5, 2.0, 0.0];
+            p.occupied_hi = [7.0, 5.0, 9.5, 1.0];
+            let frame = crate::cpu::Frame {
+                params: &p,
+                volume: &volume,
+                lut: &[],
+                cells: None,
+                skip_empty: case % 2 == 0,
+                lit: false,
+                early_termination: true,
+                jitter: case % 3 != 1,
+                uniform_runs: false,
+                model: Model::EmissionAbsorption,
+                preint: None,
+                refine: 0,
+            };
+            for row in 0..p.height {
+                for col0 in (0..p.width).step_by(TILE) {
+                    // SAFETY: AVX2 and FMA are available.
+                    let r = unsafe { rays(&frame, col0, row) };
+                    let lanes = |x: __m256| -> [u32; 8] { unsafe { std::mem::transmute(x) } };
+                    let ints = |x: __m256i| -> [u32; 8] { unsafe { std::mem::transmute(x) } };
+                    let hits = lanes(r.hit);
+                    for l in 0..TILE {
+                        let col = col0 + l as u32;
+                        let want = if col < p.width { Ray::new(&frame, col, row) } else { None };
+                        let Some(w) = want else {
+                            assert_eq!(hits[l], 0, "case {case}, pixel ({col}, {row}) has no ray");
+                            missed += 1;
+                            continue;
+                        };
+                        assert_eq!(hits[l], u32::MAX, "case {case}, pixel ({col}, {row})");
+                        let got = (
+                            std::array::from_fn::<u32, 3, _>(|a| lanes(r.d[a])[l]),
+                            [lanes(r.t0)[l], lanes(r.chord)[l], lanes(r.shift)[l]],
+                            (ints(r.n)[l], f32::from_bits(lanes(r.needed)[l]) as u32, (ints(r.lo)[l], ints(r.hi)[l])),
+                        );
+                        let expected =
+                            (w.d.map(f32::to_bits), [w.t0, w.chord, w.shift].map(f32::to_bits), (w.n, w.needed, w.window));
+                        assert_eq!(got, expected, "case {case}, pixel ({col}, {row})");
+                        compared += 1;
+                        truncated += (w.n < w.needed) as u32;
+                        windowed += (w.window != (0, w.n)) as u32;
+                    }
+                }
+            }
+        }
+        // The cases reach every branch of the rule.
+        assert!(compared > 10_000 && missed > 1_000 && truncated > 1_000 && windowed > 1_000, "{compared} {missed} {truncated} {windowed}");
+    }
+}
