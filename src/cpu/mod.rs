@@ -196,7 +196,7 @@ pub fn render(frame: &Frame, out: &mut [[f32; 4]], stop: &mut dyn FnMut() -> boo
         let workers: Vec<_> = (0..threads)
             .map(|_| {
                 s.spawn(|| {
-                    flush_subnormals();
+                    set_flush_to_zero();
                     let stats = work();
                     finished.fetch_add(1, Ordering::Release);
                     caller.unpark();
@@ -224,22 +224,24 @@ pub fn render(frame: &Frame, out: &mut [[f32; 4]], stop: &mut dyn FnMut() -> boo
     Ok(stats)
 }
 
-/// Sets flush-to-zero and denormals-are-zero on this thread (a worker's
-/// own): fields that fall off exponentially (a Gaussian tube, a decaying
-/// density) hold subnormal values and gradients far from their features,
-/// and every operation on one takes a microcode assist of ~100 cycles (the
-/// sparse helix's lit frames ran 2.4x slower). WGSL lets shaders flush
-/// subnormals too; what they stand for is under 1.2e-38.
-fn flush_subnormals() {
+/// Sets flush-to-zero on this thread (a worker's own): a result that would
+/// be subnormal is 0, so the march never makes one, and each operation
+/// making or reading one would take a microcode assist of ~100 cycles
+/// (`gpu::resources::cpu_copy` flushes the texels' own: with neither, the
+/// sparse helix's lit frames ran 2.4x slower). Inputs are read as they are (no denormals-are-zero): a
+/// value map or step can be subnormal in an extreme scene (a value range
+/// of 3e38, a box 6e37 across) and must not read as 0. WGSL lets shaders
+/// flush subnormal results too.
+fn set_flush_to_zero() {
     #[cfg(target_arch = "x86_64")]
     {
-        const FTZ_DAZ: u32 = 1 << 15 | 1 << 6;
+        const FTZ: u32 = 1 << 15;
         let mut csr = 0u32;
         // SAFETY: stmxcsr and ldmxcsr read and write MXCSR, which only
         // changes this thread's SSE/AVX rounding of subnormals.
         unsafe {
             std::arch::asm!("stmxcsr [{}]", in(reg) &mut csr, options(nostack, preserves_flags));
-            csr |= FTZ_DAZ;
+            csr |= FTZ;
             std::arch::asm!("ldmxcsr [{}]", in(reg) &csr, options(nostack, preserves_flags, readonly));
         }
     }
