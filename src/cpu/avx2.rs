@@ -51,6 +51,23 @@ fn interpolate<const C: usize>(
     mix(plane(offs[0][0]), plane(offs[0][1]), w[0])
 }
 
+/// Eight rays' four channels, each ray's in a 128-bit register, as four
+/// registers of eight lanes (channel c of ray l in lane l of register c).
+#[inline]
+#[target_feature(enable = "avx2,fma")]
+fn transpose_rays(rays: &[__m128; 8]) -> [__m256; 4] {
+    // Rays l and l + 4 share a register, then a 4x4 transpose in each half.
+    let r: [__m256; 4] = std::array::from_fn(|l| _mm256_set_m128(rays[l + 4], rays[l]));
+    let (t0, t1) = (_mm256_unpacklo_ps(r[0], r[1]), _mm256_unpackhi_ps(r[0], r[1]));
+    let (t2, t3) = (_mm256_unpacklo_ps(r[2], r[3]), _mm256_unpackhi_ps(r[2], r[3]));
+    [
+        _mm256_shuffle_ps::<0x44>(t0, t2),
+        _mm256_shuffle_ps::<0xEE>(t0, t2),
+        _mm256_shuffle_ps::<0x44>(t1, t3),
+        _mm256_shuffle_ps::<0xEE>(t1, t3),
+    ]
+}
+
 /// A value-only storage's texel: no normal.
 #[inline]
 #[target_feature(enable = "avx2,fma")]
@@ -285,17 +302,35 @@ pub unsafe fn march<T: Texels>(
         let (x0, y0) = (_mm256_floor_ps(x), _mm256_floor_ps(y));
         let (fx, fy) = (_mm256_sub_ps(x, x0), _mm256_sub_ps(y, y0));
         let (x0, y0) = (_mm256_cvttps_epi32(x0), _mm256_cvttps_epi32(y0));
-        let x1 = _mm256_min_epi32(_mm256_add_epi32(x0, onei), _mm256_set1_epi32(t.width as i32 - 1));
-        let y1 = _mm256_add_epi32(y0, onei);
-        let row = _mm256_set1_epi32(4 * t.width as i32);
+        // Each ray's two entries along the front value lie side by side:
+        // one 256-bit load a row instead of a gather a channel and corner.
+        // Entry x0 + 1 is the sampler's x1 but at x0 = side - 1 = width - 1
+        // (front value 1), where fx is 0 and the entry after the row's last
+        // (the next row's first, finite) drops out of the lerp exactly.
+        let width = 4 * t.width;
+        let at: [i32; 8] = std::mem::transmute(_mm256_add_epi32(
+            _mm256_mullo_epi32(y0, _mm256_set1_epi32(width as i32)),
+            _mm256_slli_epi32::<2>(x0),
+        ));
+        let (fx, fy): ([f32; 8], [f32; 8]) = (std::mem::transmute(fx), std::mem::transmute(fy));
         let base = t.texels.as_ptr() as *const f32;
-        let corner = |xi: __m256i, yi: __m256i| -> [__m256; 4] {
-            let at = _mm256_add_epi32(_mm256_mullo_epi32(yi, row), _mm256_slli_epi32::<2>(xi));
-            // SAFETY: x < width and y <= side, inside the side + 2 rows.
-            std::array::from_fn(|c| unsafe { _mm256_i32gather_ps::<4>(base.add(c), at) })
-        };
-        let (a, b, c, d) = (corner(x0, y0), corner(x1, y0), corner(x0, y1), corner(x1, y1));
-        std::array::from_fn(|k| lerp(lerp(a[k], b[k], fx), lerp(c[k], d[k], fx), fy))
+        let rays: [__m128; 8] = std::array::from_fn(|l| {
+            // SAFETY: x0 < width and y0 < side: both rows' two entries lie
+            // inside the side + 2 rows.
+            let (r0, r1) = unsafe {
+                let p = base.add(at[l] as usize);
+                (_mm256_loadu_ps(p), _mm256_loadu_ps(p.add(width)))
+            };
+            // [front lerp of row y0 | of row y1], then the back lerp.
+            let rows = lerp(
+                _mm256_permute2f128_ps::<0x20>(r0, r1),
+                _mm256_permute2f128_ps::<0x31>(r0, r1),
+                _mm256_set1_ps(fx[l]),
+            );
+            let (lo, hi) = (_mm256_castps256_ps128(rows), _mm256_extractf128_ps::<1>(rows));
+            _mm_fmadd_ps(_mm_sub_ps(hi, lo), _mm_set1_ps(fy[l]), lo)
+        });
+        transpose_rays(&rays)
     };
     // compositing.wgsl `opacity_variation`: the running sums of the table's
     // opacity change, read at the entries around [lo, hi].
