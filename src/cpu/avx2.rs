@@ -284,15 +284,15 @@ pub unsafe fn march<T: Texels>(
         let xl = _mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(v, zero), one), lut_scale);
         let k = _mm256_min_epi32(_mm256_cvttps_epi32(xl), lut_last);
         let t = _mm256_sub_ps(xl, _mm256_cvtepi32_ps(k));
-        let k4 = _mm256_slli_epi32::<2>(k);
-        std::array::from_fn(|c| {
-            let at = _mm256_add_epi32(k4, _mm256_set1_epi32(c as i32));
+        // Each ray's entries k and k + 1 in one 256-bit load.
+        let (k, t): ([i32; 8], [f32; 8]) = (std::mem::transmute(k), std::mem::transmute(t));
+        let rays: [__m128; 8] = std::array::from_fn(|l| {
             // SAFETY: k <= M - 2, so both entries lie in the table.
-            let (e0, e1) = unsafe {
-                (_mm256_i32gather_ps::<4>(lut, at), _mm256_i32gather_ps::<4>(lut, _mm256_add_epi32(at, _mm256_set1_epi32(4))))
-            };
-            lerp(e0, e1, t)
-        })
+            let e = unsafe { _mm256_loadu_ps(lut.add(4 * k[l] as usize)) };
+            let (e0, e1) = (_mm256_castps256_ps128(e), _mm256_extractf128_ps::<1>(e));
+            _mm_fmadd_ps(_mm_sub_ps(e1, e0), _mm_set1_ps(t[l]), e0)
+        });
+        transpose_rays(&rays)
     };
     // The table's bilinear entry for (front, back) values, as the sampler reads it.
     let table_entry = |vf: __m256, vb: __m256, t: &super::PreintTable| -> [__m256; 4] {
