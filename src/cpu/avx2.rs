@@ -219,7 +219,8 @@ pub unsafe fn march<T: Texels>(
         let tc = _mm256_add_ps(_mm256_mul_ps(at, set(p.tex_scale[k])), set(p.tex_offset[k]));
         _mm256_sub_ps(_mm256_mul_ps(tc, set(dims[k] as f32)), set(0.5))
     });
-    let per: [__m256; 3] = std::array::from_fn(|k| _mm256_mul_ps(_mm256_mul_ps(rays.d[k], set(p.tex_scale[k])), set(dims[k] as f32)));
+    let per: [__m256; 3] =
+        std::array::from_fn(|k| _mm256_mul_ps(_mm256_mul_ps(rays.d[k], set(p.tex_scale[k])), set(dims[k] as f32)));
     let moving: [__m256; 3] = std::array::from_fn(|k| _mm256_cmp_ps::<_CMP_NEQ_OQ>(per[k], _mm256_setzero_ps()));
     let ahead: [__m256; 3] = std::array::from_fn(|k| _mm256_cmp_ps::<_CMP_GT_OQ>(per[k], _mm256_setzero_ps()));
     let (shift, chord, n, limit) = (rays.shift, rays.chord, rays.n, rays.hi);

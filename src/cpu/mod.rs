@@ -228,10 +228,10 @@ pub fn render(frame: &Frame, out: &mut [[f32; 4]], stop: &mut dyn FnMut() -> boo
 /// be subnormal is 0, so the march never makes one, and each operation
 /// making or reading one would take a microcode assist of ~100 cycles
 /// (`gpu::resources::cpu_copy` flushes the texels' own: with neither, the
-/// sparse helix's lit frames ran 2.4x slower). Inputs are read as they are (no denormals-are-zero): a
-/// value map or step can be subnormal in an extreme scene (a value range
-/// of 3e38, a box 6e37 across) and must not read as 0. WGSL lets shaders
-/// flush subnormal results too.
+/// sparse helix's lit frames ran 2.4x slower). Inputs are read as they are
+/// (no denormals-are-zero): a value map or step can be subnormal in an
+/// extreme scene (a value range of 3e38, a box 6e37 across) and must not
+/// read as 0. WGSL lets shaders flush subnormal results too.
 fn set_flush_to_zero() {
     #[cfg(target_arch = "x86_64")]
     {

@@ -121,7 +121,14 @@ pub unsafe fn rays(frame: &Frame, col0: u32, row: u32) -> Rays {
 /// skipping.wgsl `occupied_window` (`super::Ray::occupied_window`).
 #[inline]
 #[target_feature(enable = "avx2,fma")]
-fn occupied_window(frame: &Frame, d: &[__m256; 3], t0: __m256, chord: __m256, shift: __m256, n: __m256i) -> (__m256i, __m256i) {
+fn occupied_window(
+    frame: &Frame,
+    d: &[__m256; 3],
+    t0: __m256,
+    chord: __m256,
+    shift: __m256,
+    n: __m256i,
+) -> (__m256i, __m256i) {
     let p = frame.params;
     let set = _mm256_set1_ps;
     let zero = _mm256_setzero_ps();
@@ -191,7 +198,8 @@ mod tests {
         let (mut compared, mut missed, mut truncated, mut windowed) = (0, 0, 0, 0);
         for case in 0..60 {
             let v4 = |x: [f32; 3]| [x[0], x[1], x[2], 0.0];
-            let mut p = Params { width: 37, height: 21, border: (case % 2) as u32, jitter_seed: case, ..Default::default() };
+            let mut p =
+                Params { width: 37, height: 21, border: (case % 2) as u32, jitter_seed: case, ..Default::default() };
             let ext = [1.0, 0.6, 0.8];
             let pos: [f32; 3] = match case % 3 {
                 0 => std::array::from_fn(|_| pick(&mut k, -1.5, 2.5)),
@@ -199,7 +207,8 @@ mod tests {
                 _ => [0.5, 0.3, 3.0],
             };
             let target: [f32; 3] = std::array::from_fn(|a| pick(&mut k, 0.3, 0.7) * ext[a]);
-            let fwd = if case % 3 == 2 { [0.0, 0.0, -1.0] } else { (glam::Vec3::from(target) - glam::Vec3::from(pos)).normalize().into() };
+            let towards = (glam::Vec3::from(target) - glam::Vec3::from(pos)).normalize().into();
+            let fwd = if case % 3 == 2 { [0.0, 0.0, -1.0] } else { towards };
             let f = glam::Vec3::from(fwd);
             let right = f.cross(if f.z.abs() > 0.9 { glam::Vec3::Y } else { glam::Vec3::Z }).normalize();
             let up = right.cross(f);
@@ -251,8 +260,8 @@ mod tests {
                             [lanes(r.t0)[l], lanes(r.chord)[l], lanes(r.shift)[l]],
                             (ints(r.n)[l], f32::from_bits(lanes(r.needed)[l]) as u32, (ints(r.lo)[l], ints(r.hi)[l])),
                         );
-                        let expected =
-                            (w.d.map(f32::to_bits), [w.t0, w.chord, w.shift].map(f32::to_bits), (w.n, w.needed, w.window));
+                        let geometry = [w.t0, w.chord, w.shift].map(f32::to_bits);
+                        let expected = (w.d.map(f32::to_bits), geometry, (w.n, w.needed, w.window));
                         assert_eq!(got, expected, "case {case}, pixel ({col}, {row})");
                         compared += 1;
                         truncated += (w.n < w.needed) as u32;
@@ -262,6 +271,7 @@ mod tests {
             }
         }
         // The cases reach every branch of the rule.
-        assert!(compared > 10_000 && missed > 1_000 && truncated > 1_000 && windowed > 1_000, "{compared} {missed} {truncated} {windowed}");
+        let counts = format!("{compared} {missed} {truncated} {windowed}");
+        assert!(compared > 10_000 && missed > 1_000 && truncated > 1_000 && windowed > 1_000, "{counts}");
     }
 }
