@@ -46,13 +46,20 @@ pub struct VolumeGpu {
     pub cpu: Option<CpuVolume>,
 }
 
-/// A copy of the texels for the native march: only where the adapter is a
-/// CPU (whose "device memory" is the same RAM) and the march runs there,
-/// and only while the copy takes at most half the memory the system says
-/// is available (frames then stay on the shader): it doubles what the
-/// volume takes, and a process over its memory is killed, not told.
-fn cpu_copy(ctx: &GpuContext, format: wgpu::TextureFormat, dims: [usize; 3], bytes: &[u8]) -> Option<CpuVolume> {
-    if ctx.adapter_info.device_type != wgpu::DeviceType::Cpu || !crate::cpu::available() {
+/// A copy of the texels for the native march: only where the caller asks
+/// (`native`), the adapter is a CPU (whose "device memory" is the same RAM)
+/// and the march runs there, and only while the copy takes at most half
+/// the memory the system says is available (frames then stay on the
+/// shader): it doubles what the volume takes, and a process over its
+/// memory is killed, not told.
+fn cpu_copy(
+    ctx: &GpuContext,
+    native: bool,
+    format: wgpu::TextureFormat,
+    dims: [usize; 3],
+    bytes: &[u8],
+) -> Option<CpuVolume> {
+    if !native || ctx.adapter_info.device_type != wgpu::DeviceType::Cpu || !crate::cpu::available() {
         return None;
     }
     if available_memory().is_some_and(|free| bytes.len() as u64 > free / 2) {
@@ -117,8 +124,10 @@ fn available_memory() -> Option<u64> {
 }
 
 impl VolumeGpu {
-    /// Uploads `vol`, storing float data at `precision`.
-    pub fn upload(ctx: &GpuContext, vol: &VolumeView, precision: Precision) -> Result<VolumeGpu, Error> {
+    /// Uploads `vol`, storing float data at `precision`. `native`: keep a
+    /// copy of the texels for the native march where it runs (`cpu_copy`);
+    /// a brick's would never be read (the march takes one texture).
+    pub fn upload(ctx: &GpuContext, vol: &VolumeView, precision: Precision, native: bool) -> Result<VolumeGpu, Error> {
         let max3d = ctx.limits.max_texture_dimension_3d as usize;
         if let Some(&big) = vol.dims.iter().find(|&&d| d > max3d) {
             return Err(Error::DeviceLimit(format!(
@@ -160,14 +169,14 @@ impl VolumeGpu {
                         .into(),
                 ));
             }
-            return Self::upload_fixed16(ctx, vol);
+            return Self::upload_fixed16(ctx, vol, native);
         }
         if let (Voxels::F32(v), Precision::Float16) = (vol.voxels, precision) {
             precision.check(v)?;
-            return Self::upload_f16(ctx, vol, v);
+            return Self::upload_f16(ctx, vol, v, native);
         }
         if let (Voxels::F32(v), Some(n), true) = (vol.voxels, vol.normals, packed32) {
-            return Self::upload_packed_f32(ctx, vol, v, n);
+            return Self::upload_packed_f32(ctx, vol, v, n, native);
         }
         let converted: Vec<u8>;
         let (format, bytes): (wgpu::TextureFormat, &[u8]) = match vol.voxels {
@@ -219,7 +228,7 @@ impl VolumeGpu {
             bytes: bytes.len() as u64 + normal_bytes,
             grid: MinMaxGrid::build(vol),
             stored: ValueMap::IDENTITY,
-            cpu: cpu_copy(ctx, format, vol.dims, bytes),
+            cpu: cpu_copy(ctx, native, format, vol.dims, bytes),
         })
     }
 
@@ -227,7 +236,7 @@ impl VolumeGpu {
     /// R16Snorm, or with normals one Rgba16Snorm texel (value, normal) per
     /// voxel, half the bytes of (value, normal) in float32. Float data's
     /// occupancy grid is built from the values the device reads.
-    fn upload_fixed16(ctx: &GpuContext, vol: &VolumeView) -> Result<VolumeGpu, Error> {
+    fn upload_fixed16(ctx: &GpuContext, vol: &VolumeView, native: bool) -> Result<VolumeGpu, Error> {
         let coded = Fixed16::encode(vol.voxels)?;
         let grid = match vol.voxels {
             Voxels::F32(_) => {
@@ -248,7 +257,7 @@ impl VolumeGpu {
                 (wgpu::TextureFormat::Rgba16Snorm, texels)
             }
         };
-        let mut gpu = Self::whole_texels(ctx, vol, vol.dims, format, bytemuck::cast_slice(&texels), grid)?;
+        let mut gpu = Self::whole_texels(ctx, vol, vol.dims, format, bytemuck::cast_slice(&texels), grid, native)?;
         gpu.stored = coded.map;
         Ok(gpu)
     }
@@ -256,7 +265,7 @@ impl VolumeGpu {
     /// Float data as float16: R16Float, or with normals one Rgba16Float texel
     /// (value, normal) per voxel, so that a lit sample fetches once. The
     /// occupancy grid is built from the rounded values the device reads.
-    fn upload_f16(ctx: &GpuContext, vol: &VolumeView, values: &[f32]) -> Result<VolumeGpu, Error> {
+    fn upload_f16(ctx: &GpuContext, vol: &VolumeView, values: &[f32], native: bool) -> Result<VolumeGpu, Error> {
         let halves = try_collect(values.len(), "converting the volume to float16", values.iter().map(|&v| f32_to_f16(v)))?;
         // Built before the texels so that the rounded copy is freed first
         // (a 512^3 volume's texels alone take 1 GB).
@@ -268,7 +277,7 @@ impl VolumeGpu {
             None => (wgpu::TextureFormat::R16Float, halves),
             Some(n) => (wgpu::TextureFormat::Rgba16Float, with_normals(&halves, n, f32_to_f16)?),
         };
-        Self::whole_texels(ctx, vol, vol.dims, format, bytemuck::cast_slice(&data), grid)
+        Self::whole_texels(ctx, vol, vol.dims, format, bytemuck::cast_slice(&data), grid, native)
     }
 
     /// A volume whose texels hold everything a sample reads (values, and
@@ -281,6 +290,7 @@ impl VolumeGpu {
         format: wgpu::TextureFormat,
         bytes: &[u8],
         grid: MinMaxGrid,
+        native: bool,
     ) -> Result<VolumeGpu, Error> {
         let view = ctx.texture_with_data("uploading the volume", "volume", extent_of(texels), D3, format, 1, bytes)?;
         Ok(VolumeGpu {
@@ -295,7 +305,7 @@ impl VolumeGpu {
             bytes: bytes.len() as u64,
             grid,
             stored: ValueMap::IDENTITY,
-            cpu: cpu_copy(ctx, format, texels, bytes),
+            cpu: cpu_copy(ctx, native, format, texels, bytes),
         })
     }
 
@@ -324,10 +334,16 @@ impl VolumeGpu {
     }
 
     /// Float32 values with their normals' directions, one Rgba32Float texel each.
-    fn upload_packed_f32(ctx: &GpuContext, vol: &VolumeView, values: &[f32], normals: &[f32]) -> Result<VolumeGpu, Error> {
+    fn upload_packed_f32(
+        ctx: &GpuContext,
+        vol: &VolumeView,
+        values: &[f32],
+        normals: &[f32],
+        native: bool,
+    ) -> Result<VolumeGpu, Error> {
         let texels = with_normals(values, normals, |c| c)?;
         let format = wgpu::TextureFormat::Rgba32Float;
-        Self::whole_texels(ctx, vol, vol.dims, format, bytemuck::cast_slice(&texels), MinMaxGrid::build(vol))
+        Self::whole_texels(ctx, vol, vol.dims, format, bytemuck::cast_slice(&texels), MinMaxGrid::build(vol), native)
     }
 
     /// Float32 values with their gradients (`gradients::bordered_texels`),
@@ -354,7 +370,7 @@ impl VolumeGpu {
         let spacing = std::array::from_fn(|a| extent[a] / unit / vol.dims[a] as f64);
         let data = gradients::bordered_texels(values, vol.dims, spacing)?;
         let format = wgpu::TextureFormat::Rgba32Float;
-        let mut gpu = Self::whole_texels(ctx, vol, big, format, bytemuck::cast_slice(&data), grid.clone())?;
+        let mut gpu = Self::whole_texels(ctx, vol, big, format, bytemuck::cast_slice(&data), grid.clone(), true)?;
         gpu.normals_in_volume = true;
         gpu.gradients = true;
         Ok(Some(gpu))

@@ -144,7 +144,7 @@ impl GpuRenderer {
                 "precision 'fixed16' is for volumes in one texture: store bricks as 'float32' or 'float16'".into(),
             ));
         }
-        let mut gpu = VolumeGpu::upload(&ctx, vol, precision)?;
+        let mut gpu = VolumeGpu::upload(&ctx, vol, precision, false)?;
         // Passes are planned over the brick's own box.
         gpu.bounds = core_box(&grid, &bounds, index);
         let bytes = gpu.bytes;

@@ -316,7 +316,7 @@ impl GpuRenderer {
     /// Uploads a volume, storing float data at `precision`.
     pub fn set_volume_with_precision(&mut self, vol: &VolumeView, precision: Precision) -> Result<(), Error> {
         self.check_process()?;
-        let volume = VolumeGpu::upload(&self.ctx, vol, precision)?;
+        let volume = VolumeGpu::upload(&self.ctx, vol, precision, true)?;
         let total = volume.bytes;
         self.volume = Some(volume);
         self.bricks = None;
