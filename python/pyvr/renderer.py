@@ -878,11 +878,13 @@ class VolumeRenderer:
         pre-integrated or refined), absorption and emission, front to back, with
         exponential opacity correction, unlit or lit from the normals (or
         gradients) the volume's texels hold, from float32 or fixed16
-        storage in one texture; 1.4-1.9x the shader's speed per sample on
-        the benchmark scene. Images match the shader's within 0.25 level
+        storage in one texture; 1.4x (float32) and 2.2x (fixed16) the
+        shader's speed per sample on the benchmark scene (docs/speed.md).
+        Images match the shader's within 0.25 level
         (measured: 0.0004 on most scenes); ``last_frame_stats["engine"]``
-        says which ran ("native" or "gpu"). It keeps a copy of the texels
-        in memory beside the driver's (docs/speed.md, "The native march")."""
+        says which ran ("native" or "gpu"). It keeps a copy of a volume's
+        texels in memory beside the driver's (none of bricks, which stay on
+        the shader; docs/speed.md, "The native march")."""
         return self._engine.native_march
 
     @native_march.setter
