@@ -205,3 +205,42 @@ def test_grids_kept_for_alternating_frames_follow_every_change():
     shifted = np.ascontiguousarray(np.roll(data, 5, axis=1))
     r.load_volume(Volume(shifted))
     check(shifted, otf, (0.0, 0.6))
+
+
+def test_preintegration_tables_kept_for_other_steps_follow_the_table():
+    # Pre-integrated frames at another step need another table; the
+    # renderer keeps the last few, so a session switching steps (a coarse
+    # one while the view moves, a step search's pilots) swaps them back in
+    # without rebuilding or uploading. They are the table's only while it
+    # lasts: a new transfer function must rebuild, or frames would show
+    # the old one's colours.
+    data = create_sample_volume(48, "torus")
+    cmap = ColorTransferFunction.from_colormap("plasma")
+    first = OpacityTransferFunction.peaks([0.5], opacity=0.8, eps=0.03)
+    r = make_renderer(Volume(data), ctf=cmap, otf=first, light=Light.ambient_only(1.0))
+    steps = [0.05, 0.03, 0.02, 0.07, 0.04]
+    pre = {h: RenderConfig(step_size=h, max_steps=200, early_ray_termination=False, pre_integrated=True) for h in steps}
+
+    def frame(h):
+        img = r.render(dtype=np.float32, premultiplied=True, config=pre[h])
+        return img, r.last_frame_stats["uploaded_bytes"]
+
+    built = {h: frame(h) for h in steps[:2]}
+    assert min(b for _, b in built.values()) > 100_000  # 256 x 258 texels
+    for h in (0.05, 0.03, 0.05):
+        img, uploaded = frame(h)
+        assert uploaded < 512 and np.array_equal(img, built[h][0]), h
+    # Three tables are kept besides the current one: after three more
+    # steps the least recent (0.03) is rebuilt, the same as before.
+    for h in steps[2:]:
+        frame(h)
+    img, uploaded = frame(0.03)
+    assert uploaded > 100_000 and np.array_equal(img, built[0.03][0])
+    # A new table: every step's table is rebuilt from it.
+    second = OpacityTransferFunction.peaks([0.3], opacity=0.8, eps=0.03)
+    r.set_transfer_functions(cmap, second)
+    fresh = make_renderer(Volume(data), ctf=cmap, otf=second, light=Light.ambient_only(1.0))
+    for h in (0.04, 0.05):
+        img, uploaded = frame(h)
+        want = fresh.render(dtype=np.float32, premultiplied=True, config=pre[h])
+        assert uploaded > 100_000 and np.abs(img - want).max() < 1e-6 and want[..., 3].max() > 0.2, h

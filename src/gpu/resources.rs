@@ -473,7 +473,16 @@ pub struct Tables {
     pub preint: Option<(wgpu::TextureView, PreintKey)>,
     /// The same texture's texels, for the native march.
     pub preint_texels: crate::cpu::PreintTable,
+    /// Tables of this transfer function for other segment lengths, latest
+    /// first: a session that switches steps (a coarse step while the view
+    /// moves, a fine one at rest; pilots of a step search) swaps them back
+    /// in instead of rebuilding.
+    preint_spares: Vec<(wgpu::TextureView, PreintKey, crate::cpu::PreintTable)>,
 }
+
+/// Pre-integration tables kept besides the current one (each about 2 MiB
+/// with its texels at 256 entries).
+const PREINT_SPARES: usize = 3;
 
 /// What a pre-integration table depends on.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -485,7 +494,14 @@ pub struct PreintKey {
 
 impl Tables {
     pub fn new() -> Tables {
-        Tables { lut: None, rows: Vec::new(), version: 0, preint: None, preint_texels: Default::default() }
+        Tables {
+            lut: None,
+            rows: Vec::new(),
+            version: 0,
+            preint: None,
+            preint_texels: Default::default(),
+            preint_spares: Vec::new(),
+        }
     }
 
     /// Uploads the table: a texture fetch is far cheaper than an indexed
@@ -508,14 +524,23 @@ impl Tables {
         self.lut = Some((view, lut.len() as u32));
         self.rows = lut.to_vec();
         self.version += 1;
+        self.preint_spares.clear();
         Ok(bytes.len() as u64)
     }
 
-    /// Builds the pre-integration table for `key` unless the current one was
-    /// built for it. Returns the bytes written (0 when kept).
-    pub fn ensure_preint(&mut self, ctx: &GpuContext, key: PreintKey) -> Result<u64, Error> {
+    /// Makes the pre-integration table for `key` current unless it is:
+    /// from the spares, or built. Returns None when the current one was
+    /// kept, else the bytes written (0 for a spare).
+    pub fn ensure_preint(&mut self, ctx: &GpuContext, key: PreintKey) -> Result<Option<u64>, Error> {
         if self.preint.as_ref().is_some_and(|(_, k)| *k == key) {
-            return Ok(0);
+            return Ok(None);
+        }
+        if let Some(i) = self.preint_spares.iter().position(|(_, k, _)| *k == key) {
+            let (view, key, texels) = self.preint_spares.remove(i);
+            self.keep_current_preint();
+            self.preint = Some((view, key));
+            self.preint_texels = texels;
+            return Ok(Some(0));
         }
         let side = preintegrate::table_side(self.rows.len());
         let table = preintegrate::table(&self.rows, key.len_over_ref, key.form);
@@ -524,9 +549,22 @@ impl Tables {
         let (format, bytes) = float_table(ctx, &texels, Some(6.0e4));
         let size = wgpu::Extent3d { width: width as u32, height: side as u32 + 2, depth_or_array_layers: 1 };
         let view = ctx.texture_with_data("uploading the pre-integration table", "preint", size, D2, format, 1, &bytes)?;
+        self.keep_current_preint();
         self.preint = Some((view, key));
         self.preint_texels = crate::cpu::PreintTable { texels, width, side };
-        Ok(bytes.len() as u64)
+        Ok(Some(bytes.len() as u64))
+    }
+
+    /// Moves the current table to the front of the spares if it is for the
+    /// current transfer function.
+    fn keep_current_preint(&mut self) {
+        if let Some((view, key)) = self.preint.take() {
+            let texels = std::mem::take(&mut self.preint_texels);
+            if key.lut_version == self.version {
+                self.preint_spares.insert(0, (view, key, texels));
+                self.preint_spares.truncate(PREINT_SPARES);
+            }
+        }
     }
 }
 

@@ -235,8 +235,7 @@ impl GpuRenderer {
                 len_over_ref: cfg.step_size / cfg.reference_step_size,
                 form: cfg.opacity_correction,
             };
-            let bytes = self.tables.ensure_preint(&self.ctx, key)?;
-            if bytes > 0 {
+            if let Some(bytes) = self.tables.ensure_preint(&self.ctx, key)? {
                 self.pending_upload += bytes;
                 self.bind_group = None;
             }
