@@ -480,9 +480,13 @@ pub struct Tables {
     preint_spares: Vec<(wgpu::TextureView, PreintKey, crate::cpu::PreintTable)>,
 }
 
-/// Pre-integration tables kept besides the current one (each about 2 MiB
-/// with its texels at 256 entries).
+/// Pre-integration tables kept besides the current one, and the most
+/// their texels may take together: a table's rows are as wide as the
+/// transfer function (`with_lut_row`), so a 256-entry one holds 1 MiB of
+/// texels (and as much again on the device), a 16384-entry one 130 MiB,
+/// which is not kept.
 const PREINT_SPARES: usize = 3;
+const PREINT_SPARE_BYTES: usize = 16 << 20;
 
 /// What a pre-integration table depends on.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -563,6 +567,10 @@ impl Tables {
             if key.lut_version == self.version {
                 self.preint_spares.insert(0, (view, key, texels));
                 self.preint_spares.truncate(PREINT_SPARES);
+                let bytes = |t: &crate::cpu::PreintTable| std::mem::size_of_val(t.texels.as_slice());
+                while self.preint_spares.iter().map(|(_, _, t)| bytes(t)).sum::<usize>() > PREINT_SPARE_BYTES {
+                    self.preint_spares.pop();
+                }
             }
         }
     }
