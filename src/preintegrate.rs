@@ -261,7 +261,8 @@ impl Span {
             let stretch_len = len * share;
             let densest = extinction(ends[0][3], form).max(extinction(ends[1][3], form)) * stretch_len;
             let want = (densest / PIECE_DEPTH).ceil();
-            let q = if want.is_nan() || want > MAX_PIECES as f64 { MAX_PIECES } else { (want as usize).max(MIN_PIECES) };
+            let q =
+                if want.is_nan() || want > MAX_PIECES as f64 { MAX_PIECES } else { (want as usize).max(MIN_PIECES) };
             let piece_len = stretch_len / q as f64;
             let at = |p: usize| {
                 let rgba = lerp_entry(lut, i, u0 + (u1 - u0) * ((p as f64 + 0.5) / q as f64));
@@ -506,7 +507,8 @@ mod tests {
                         for p in 0..MIN_PIECES {
                             let f = u0 + (u1 - u0) * (p as f64 + 0.5) / MIN_PIECES as f64;
                             let e = lerp_entry(&lut, i, f);
-                            pieces.push(Piece::homogeneous(e, extinction(e[3], form) * len * share / MIN_PIECES as f64));
+                            let x = extinction(e[3], form) * len * share / MIN_PIECES as f64;
+                            pieces.push(Piece::homogeneous(e, x));
                         }
                     }
                     assert_eq!(pieces.len(), if m == 2 { 3 * MIN_PIECES } else { MIN_PIECES });
