@@ -15,13 +15,20 @@ termination (as in benches/accuracy.py), scored against the float64
 integrator's converged image. The last columns are how much less time each
 pre-integrated kind needs than plain frames for the same error.
 
-Output: tables on stdout, out/preintegration_cost.json and
-out/preintegration_gain.json (docs/speed.md).
+Table: what a new step (or a new transfer function) costs a pre-integrated
+frame, which builds its table then, for lookup tables of 256 to 4096
+entries: the first frame at each of several new steps against a warm frame
+at the same step, and a frame back at a step whose table was kept.
+
+Output: tables on stdout, out/preintegration_cost.json,
+out/preintegration_gain.json and out/preintegration_table.json
+(docs/speed.md).
 
 Run: .venv/bin/python benches/preintegration.py [--frames N] [--quick] [--only NAME]
 """
 
 import argparse
+import copy
 import os
 import sys
 import time
@@ -40,6 +47,8 @@ from pyvr import RenderConfig, VolumeRenderer, accuracy  # noqa: E402
 from pyvr.camera import Camera  # noqa: E402
 
 STEPS = [0.005, 0.01, 0.02, 0.04, 0.08]
+# Lookup-table sizes for the table-build figures (the table's side stops at 512).
+TABLE_SIZES = [256, 1024, 4096]
 # The accuracy sweep, and smaller steps for midpoint frames of narrow peaks
 # and for the helix (4 levels at 0.0003).
 GAIN_SWEEP = SWEEP + [0.00125, 0.000625, 0.0003125]
@@ -128,17 +137,46 @@ def gain(scene, targets, frames, sweep):
     return rows
 
 
+def table_build(scene, sizes, frames):
+    """Per lookup-table size: a warm pre-integrated frame, the first frame
+    at a new step (medians over `frames` new steps), their difference (the
+    table), and a frame back at the step before (its table kept)."""
+    name, vol, ctf, otf, light, px = scene
+    rows = []
+    for n in sizes:
+        r = renderer_for(scene)
+        c, o = copy.deepcopy(ctf), copy.deepcopy(otf)
+        c.lut_size = o.lut_size = n
+        r.set_transfer_functions(c, o)
+        base = RenderConfig.balanced().replace(pre_integrated=True)
+        frame(r, base)
+        first, warm, back = [], [], []
+        for k in range(frames):
+            cfg = base.replace(step_size=base.step_size * (1 + 0.01 * (k + 1)))
+            first.append(frame(r, cfg)[1])
+            warm.append(frame(r, cfg)[1])
+            back.append(frame(r, base if k == 0 else base.replace(step_size=base.step_size * (1 + 0.01 * k)))[1])
+        ms = [float(np.median(t) * 1e3) for t in (warm, first, back)]
+        rows.append([name, n, round(ms[0], 2), round(ms[1], 2), round(ms[1] - ms[0], 2), round(ms[2], 2)])
+        print(f"  {name:<22} {n:5d} entries: warm {ms[0]:6.2f} ms, first at a new step {ms[1]:7.2f} ms "
+              f"(table {ms[1] - ms[0]:6.2f} ms), back to a kept step {ms[2]:6.2f} ms", flush=True)
+    return rows
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--frames", type=int, default=5)
     ap.add_argument("--quick", action="store_true", help="smaller volumes and images (a smoke run)")
     ap.add_argument("--only", help="run only scenes whose name contains this")
-    ap.add_argument("--no-gain", action="store_true", help="only the cost table")
+    ap.add_argument("--no-gain", action="store_true", help="only the cost and table-build tables")
     args = ap.parse_args()
     chosen = [sc for sc in scenes(args.quick) if not args.only or args.only in sc[0]]
     t0 = time.perf_counter()
     print("cost at equal step (balanced: early termination and skipping on)")
     cost_rows = [row for sc in chosen for row in cost(sc, STEPS, args.frames)]
+    print("what a new step costs: the table")
+    table_rows = [row for sc in chosen if sc[0].split()[0] in ("narrow", "shepp_logan")
+                  for row in table_build(sc, TABLE_SIZES, max(5, args.frames))]
     gain_rows = []
     if not args.no_gain:
         print("time for a max error")
@@ -152,6 +190,14 @@ def main():
                 cost_rows, device=device,
                 note=f"The scenes of benches/accuracy.py, balanced (early termination, empty-space skipping); plain "
                 f"and pre-integrated frames rendered alternately, median of {args.frames} each after a warm-up.")
+    if table_rows:
+        write_table("preintegration_table", command,
+                    ["scene", "LUT entries", "warm frame ms", "first frame at a new step ms", "table ms",
+                     "back to a kept step ms"],
+                    table_rows, device=device,
+                    note="Pre-integrated frames, balanced, at steps 1-5% apart (medians over as many new steps): "
+                    "the first frame at a new step builds and uploads its table; the renderer keeps the last three "
+                    "other steps' tables (up to 16 MiB of texels, so not the wider tables of 4096 entries).")
     if gain_rows:
         write_table("preintegration_gain", command,
                     ["scene", "max error (levels)", "plain: cheapest frame within it",

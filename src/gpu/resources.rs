@@ -483,10 +483,10 @@ pub struct Tables {
 /// Pre-integration tables kept besides the current one, and the most
 /// their texels may take together: a table's rows are as wide as the
 /// transfer function (`with_lut_row`), so a 256-entry one holds 1 MiB of
-/// texels (and as much again on the device), a 16384-entry one 130 MiB,
-/// which is not kept.
+/// texels (and as much again on the device), a 1024-entry one 8 MiB (two
+/// are kept), a 4096-entry one 32 MiB (none is).
 const PREINT_SPARES: usize = 3;
-const PREINT_SPARE_BYTES: usize = 16 << 20;
+const PREINT_SPARE_BYTES: usize = 24 << 20;
 
 /// What a pre-integration table depends on.
 #[derive(Clone, Copy, Debug, PartialEq)]
