@@ -532,9 +532,10 @@ impl Tables {
         Ok(bytes.len() as u64)
     }
 
-    /// Makes the pre-integration table for `key` current unless it is:
-    /// from the spares, or built. Returns None when the current one was
-    /// kept, else the bytes written (0 for a spare).
+    /// Makes the pre-integration table for `key` current: the current one
+    /// if it was built for `key`, else a kept one, else a new one. Returns
+    /// None when the current one stays, else the bytes uploaded (0 for a
+    /// kept one).
     pub fn ensure_preint(&mut self, ctx: &GpuContext, key: PreintKey) -> Result<Option<u64>, Error> {
         if self.preint.as_ref().is_some_and(|(_, k)| *k == key) {
             return Ok(None);
