@@ -197,7 +197,7 @@ def main():
                     table_rows, device=device,
                     note="Pre-integrated frames, balanced, at steps 1-5% apart (medians over as many new steps): "
                     "the first frame at a new step builds and uploads its table; the renderer keeps the last three "
-                    "other steps' tables (up to 24 MiB of texels: not the 32 MiB tables of 4096 entries).")
+                    "other steps' tables.")
     if gain_rows:
         write_table("preintegration_gain", command,
                     ["scene", "max error (levels)", "plain: cheapest frame within it",

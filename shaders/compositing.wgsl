@@ -43,19 +43,36 @@ fn preint_uv(vf: f32, vb: f32) -> vec2<f32> {
 // holds the running sum of |opacity change| from entry to entry.
 fn opacity_variation(a: f32, b: f32) -> f32 {
     let m = f32(P.lut_size);
-    let row = i32(textureDimensions(preint).y) - 2;
     let i0 = i32(floor(clamp(a, 0.0, 1.0) * (m - 1.0)));
     let i1 = i32(ceil(clamp(b, 0.0, 1.0) * (m - 1.0)));
-    return textureLoad(preint, vec2<i32>(i1, row), 0).r - textureLoad(preint, vec2<i32>(i0, row), 0).r;
+    return textureLoad(preint, preint_sum_at(i1), 0).r - textureLoad(preint, preint_sum_at(i0), 0).r;
 }
 
-// Where it holds the transfer function's entry for value v: its last row is
-// the table itself, read at the texture's top edge, where clamp-to-edge
-// filtering mixes that row with nothing but itself.
+// The rows below the table hold the running sums, then the transfer
+// function, each wrapped into rows as wide as the table (src/preintegrate.rs
+// `wrapped_rows`): row r holds entries r (w - 1) to r (w - 1) + w - 1.
+fn preint_wrapped_rows() -> i32 {
+    let w = i32(textureDimensions(preint).x);
+    let m = i32(P.lut_size);
+    return select(1, (m - 2) / (w - 1) + 1, m > w);
+}
+
+fn preint_sum_at(i: i32) -> vec2<i32> {
+    let w1 = i32(textureDimensions(preint).x) - 1;
+    let r = min(i / w1, preint_wrapped_rows() - 1);
+    return vec2<i32>(i - r * w1, i32(P.preint_side) + r);
+}
+
+// Where it holds the transfer function's entry for value v: each of its
+// rows comes twice, and is read between the two, where filtering mixes
+// that row with nothing but itself.
 fn preint_lut_uv(v: f32) -> vec2<f32> {
-    let m = f32(P.lut_size);
-    let w = f32(textureDimensions(preint).x);
-    return vec2<f32>((clamp(v, 0.0, 1.0) * (m - 1.0) + 0.5) / w, 1.0);
+    let size = vec2<f32>(textureDimensions(preint));
+    let rows = preint_wrapped_rows();
+    let x = clamp(v, 0.0, 1.0) * (f32(P.lut_size) - 1.0);
+    let r = min(i32(floor(x / (size.x - 1.0))), rows - 1);
+    let first = P.preint_side + f32(rows);
+    return vec2<f32>((x - f32(r) * (size.x - 1.0) + 0.5) / size.x, (first + 2.0 * f32(r) + 1.0) / size.y);
 }
 
 // What a Beer–Lambert march carries from segment to segment.

@@ -71,6 +71,24 @@ pub fn substeps_for(lut_len: usize, vf: f64, vb: f64) -> usize {
     span.ceil() as usize + 1
 }
 
+/// Rows of `width` entries that hold a row of `n` wrapped: row r holds
+/// entries r (width - 1) to r (width - 1) + width - 1, so the last entry of
+/// a row is the first of the next and an entry and the one after it always
+/// share a row (a lerp between them reads one row). One row when n <= width.
+pub fn wrapped_rows(n: usize, width: usize) -> usize {
+    if n <= width || width < 2 {
+        1
+    } else {
+        (n - 2) / (width - 1) + 1
+    }
+}
+
+/// Row and column of entry `i` in `rows` wrapped rows of `width`.
+pub fn wrapped_at(i: usize, width: usize, rows: usize) -> (usize, usize) {
+    let row = (i / (width - 1).max(1)).min(rows - 1);
+    (row, i - row * (width - 1))
+}
+
 /// Side of the table for a lookup table of `lut_len` entries.
 pub fn table_side(lut_len: usize) -> usize {
     lut_len.clamp(2, MAX_TABLE)
@@ -376,6 +394,23 @@ fn windows(a: &[Piece], d: usize) -> Vec<Piece> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Every entry of a wrapped row lies in its rows, and so does the one
+    /// after it, in the same row: a lerp between them reads one row.
+    #[test]
+    fn wrapped_rows_keep_each_entry_with_the_next() {
+        for (n, width) in [(1, 2), (2, 2), (7, 2), (256, 256), (512, 512), (513, 512), (1024, 512), (16384, 512)] {
+            let rows = wrapped_rows(n, width);
+            assert_eq!(rows == 1, n <= width, "{n} {width}");
+            for i in 0..n {
+                let (r, c) = wrapped_at(i, width, rows);
+                assert!(r < rows && c < width && r * (width - 1) + c == i, "{n} {width} {i}");
+                if i + 1 < n {
+                    assert!(c + 1 < width, "{n} {width} {i}: the next entry is past the row");
+                }
+            }
+        }
+    }
 
     #[test]
     fn constant_ramp_is_beer_lambert() {

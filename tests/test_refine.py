@@ -69,6 +69,27 @@ def test_refined_frames_match_the_f64_integrator(lit, order, h):
     assert levels(img, ref) < 0.25
 
 
+@pytest.mark.parametrize("lut_size", [1024, 4096])
+@pytest.mark.parametrize("native", [False, True])
+def test_refined_frames_of_a_long_transfer_function_match_the_f64_integrator(lut_size, native):
+    # Longer than the table's 512 entries, the running opacity sums the rule
+    # reads, and the transfer function shorter segments read, are wrapped
+    # into rows of the table's width (3 rows at 1024 entries, 9 at 4096).
+    # The step at 0.5 falls where the first row ends at 1024 entries.
+    r = helix_scene()
+    ctf, otf = ColorTransferFunction.from_colormap("viridis"), OpacityTransferFunction.one_step(0.5, 0.0, 0.6)
+    ctf.lut_size = otf.lut_size = lut_size
+    r.set_transfer_functions(ctf, otf)
+    cfg = config(r, 0.01, 8)
+    r.native_march = native
+    r.set_config(cfg)
+    img = r.render(dtype=np.float32, premultiplied=True)
+    assert r.last_frame_stats["engine"] == ("native" if native else "gpu")
+    ref = r.render_float64(config=cfg, premultiplied=True)
+    assert ref[..., 3].max() > 0.5
+    assert levels(img, ref) < 0.25
+
+
 def test_refinement_finds_what_the_ramp_misses_for_few_samples_more():
     # Measured at step 0.01: 11.8 levels unrefined, 3.2 refined, for 5% more
     # samples (only segments near the threshold are refined).

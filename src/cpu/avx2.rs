@@ -339,15 +339,23 @@ pub unsafe fn march<T: Texels>(
         let m1 = _mm256_set1_ps(p.lut_size as f32 - 1.0);
         let i0 = _mm256_cvttps_epi32(_mm256_floor_ps(_mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(lo, zero), one), m1)));
         let i1 = _mm256_cvttps_epi32(_mm256_ceil_ps(_mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(hi, zero), one), m1)));
-        let row = _mm256_set1_epi32((4 * t.side * t.width) as i32);
-        let base = t.texels.as_ptr() as *const f32;
-        // SAFETY: i0, i1 < lut_size <= width: inside the sums row.
-        let (a, b) = unsafe {
-            (
-                _mm256_i32gather_ps::<4>(base, _mm256_add_epi32(row, _mm256_slli_epi32::<2>(i0))),
-                _mm256_i32gather_ps::<4>(base, _mm256_add_epi32(row, _mm256_slli_epi32::<2>(i1))),
-            )
+        // Entry i of the sums, wrapped (`preintegrate::wrapped_at`): row
+        // min(i / (width - 1), rows - 1) after the table's, at i less that
+        // row's first entry. The f32 quotient of two integers under 2^24
+        // floors right: an exact one is exact, and any other lies at least
+        // 1 / (width - 1) below the next integer.
+        let (w1, last) = (_mm256_set1_ps(t.width as f32 - 1.0), _mm256_set1_epi32(t.rows as i32 - 1));
+        let at = |i: __m256i| {
+            let q = _mm256_floor_ps(_mm256_div_ps(_mm256_cvtepi32_ps(i), w1));
+            let r = _mm256_min_epi32(_mm256_cvttps_epi32(q), last);
+            let col = _mm256_sub_epi32(i, _mm256_mullo_epi32(r, _mm256_set1_epi32(t.width as i32 - 1)));
+            let row = _mm256_add_epi32(r, _mm256_set1_epi32(t.side as i32));
+            _mm256_slli_epi32::<2>(_mm256_add_epi32(_mm256_mullo_epi32(row, _mm256_set1_epi32(t.width as i32)), col))
         };
+        let base = t.texels.as_ptr() as *const f32;
+        // SAFETY: i0, i1 < lut_size, so their rows are sums rows (checked
+        // against the texels by `march`).
+        let (a, b) = unsafe { (_mm256_i32gather_ps::<4>(base, at(i0)), _mm256_i32gather_ps::<4>(base, at(i1))) };
         _mm256_sub_ps(b, a)
     };
     let mut steps = 0u32;

@@ -439,25 +439,38 @@ fn float_table(ctx: &GpuContext, rows: &[[f32; 4]], cap: Option<f32>) -> (wgpu::
     }
 }
 
-/// The pre-integration texture's texels and width: the `side` x `side`
+/// The pre-integration texture's texels, `side` wide: the `side` x `side`
 /// table, then the running sums of the opacity change between `lut`'s
 /// entries (`preintegrate::opacity_change_sums`, in every channel; read by
-/// refined frames), then the transfer-function table `lut` as one more row, so that a
+/// refined frames), then the transfer-function table `lut`, so that a
 /// pre-integrated frame reads a shorter segment's midpoint entry from the
 /// same texture as a full segment's, in one fetch chosen by select (a fetch
-/// of its own, in a branch, cost 12-18% of such a frame on lavapipe). Rows
-/// are as wide as the wider table; each narrower one repeats its last entry.
-fn with_lut_row(table: &[[f32; 4]], side: usize, lut: &[[f32; 4]]) -> (usize, Vec<[f32; 4]>) {
-    let width = side.max(lut.len());
-    let padded = |row: &[[f32; 4]]| {
-        let last = row.last().copied().unwrap_or([0.0; 4]);
-        row.iter().copied().chain(std::iter::repeat(last)).take(width).collect::<Vec<_>>()
+/// of its own, in a branch, cost 12-18% of such a frame on lavapipe). Both
+/// are wrapped into rows of the table's width (`preintegrate::wrapped_rows`):
+/// a longer transfer function made every row as wide as itself, 33 MiB of
+/// texels at 4096 entries instead of 4.3. Each row of `lut` comes twice, and
+/// frames sample it between the two, where the sampler's filtering mixes
+/// the row with nothing but itself. Rows short of the width repeat their
+/// last entry.
+fn with_lut_row(table: &[[f32; 4]], side: usize, lut: &[[f32; 4]]) -> crate::cpu::PreintTable {
+    let width = side;
+    let rows = preintegrate::wrapped_rows(lut.len(), width);
+    let wrapped = |entries: &[[f32; 4]], twice: bool| {
+        let last = entries.last().copied().unwrap_or([0.0; 4]);
+        (0..rows)
+            .flat_map(|r| {
+                let entry = |c: usize| entries.get(r * (width - 1) + c).copied().unwrap_or(last);
+                let row: Vec<[f32; 4]> = (0..width).map(entry).collect();
+                let copies = if twice { 2 } else { 1 };
+                std::iter::repeat_n(row, copies).flatten()
+            })
+            .collect::<Vec<_>>()
     };
-    let mut texels: Vec<[f32; 4]> = table.chunks(side).flat_map(padded).collect();
+    let mut texels = table.to_vec();
     let sums: Vec<[f32; 4]> = preintegrate::opacity_change_sums(lut).into_iter().map(|c| [c; 4]).collect();
-    texels.extend(padded(&sums));
-    texels.extend(padded(lut));
-    (width, texels)
+    texels.extend(wrapped(&sums, false));
+    texels.extend(wrapped(lut, true));
+    crate::cpu::PreintTable { texels, width, side, rows }
 }
 
 /// The transfer-function table and what is derived from it.
@@ -481,10 +494,8 @@ pub struct Tables {
 }
 
 /// Pre-integration tables kept besides the current one, and the most
-/// their texels may take together: a table's rows are as wide as the
-/// transfer function (`with_lut_row`), so a 256-entry one holds 1 MiB of
-/// texels (and as much again on the device), a 1024-entry one 8 MiB (two
-/// are kept), a 4096-entry one 32 MiB (none is).
+/// their texels may take together: 1 MiB for 256 entries (and as much
+/// again on the device), 4.2-5.2 MiB from 512 entries on (`with_lut_row`).
 const PREINT_SPARES: usize = 3;
 const PREINT_SPARE_BYTES: usize = 24 << 20;
 
@@ -549,14 +560,15 @@ impl Tables {
         }
         let side = preintegrate::table_side(self.rows.len());
         let table = preintegrate::table(&self.rows, key.len_over_ref, key.form);
-        let (width, texels) = with_lut_row(&table, side, &self.rows);
+        let texels = with_lut_row(&table, side, &self.rows);
         // f16 tops out at 65504: deeper segments are opaque anyway.
-        let (format, bytes) = float_table(ctx, &texels, Some(6.0e4));
-        let size = wgpu::Extent3d { width: width as u32, height: side as u32 + 2, depth_or_array_layers: 1 };
+        let (format, bytes) = float_table(ctx, &texels.texels, Some(6.0e4));
+        let height = (side + 3 * texels.rows) as u32;
+        let size = wgpu::Extent3d { width: side as u32, height, depth_or_array_layers: 1 };
         let view = ctx.texture_with_data("uploading the pre-integration table", "preint", size, D2, format, 1, &bytes)?;
         self.keep_current_preint();
         self.preint = Some((view, key));
-        self.preint_texels = crate::cpu::PreintTable { texels, width, side };
+        self.preint_texels = texels;
         Ok(Some(bytes.len() as u64))
     }
 
