@@ -39,8 +39,8 @@ fn preint_uv(vf: f32, vb: f32) -> vec2<f32> {
 }
 
 // The opacity the transfer function gains and loses over the values in
-// [a, b], from its entries ⌊a(m-1)⌋ to ⌈b(m-1)⌉: the row below the last
-// holds the running sum of |opacity change| from entry to entry.
+// [a, b], from its entries ⌊a(m-1)⌋ to ⌈b(m-1)⌉: the rows below the table
+// hold the running sum of |opacity change| from entry to entry.
 fn opacity_variation(a: f32, b: f32) -> f32 {
     let m = f32(P.lut_size);
     let i0 = i32(floor(clamp(a, 0.0, 1.0) * (m - 1.0)));

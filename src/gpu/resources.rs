@@ -447,8 +447,8 @@ fn float_table(ctx: &GpuContext, rows: &[[f32; 4]], cap: Option<f32>) -> (wgpu::
 /// same texture as a full segment's, in one fetch chosen by select (a fetch
 /// of its own, in a branch, cost 12-18% of such a frame on lavapipe). Both
 /// are wrapped into rows of the table's width (`preintegrate::wrapped_rows`):
-/// a longer transfer function made every row as wide as itself, 33 MiB of
-/// texels at 4096 entries instead of 4.3. Each row of `lut` comes twice, and
+/// a longer transfer function made every row as wide as itself, 34 MB of
+/// texels at 4096 entries instead of 4.4. Each row of `lut` comes twice, and
 /// frames sample it between the two, where the sampler's filtering mixes
 /// the row with nothing but itself. Rows short of the width repeat their
 /// last entry.
