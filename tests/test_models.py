@@ -357,14 +357,16 @@ def test_pre_integration_is_exact_on_a_homogeneous_cube():
     assert np.abs(img[..., 0] - COLOR[0] * a).max() < TOL
 
 
-@pytest.mark.parametrize("lut_size", [256, 1024])
+@pytest.mark.parametrize("lut_size", [2, 16, 256, 1024])
 def test_pre_integrated_frames_match_the_float64_integrator(lut_size):
     # A dense field, so that every ray's shorter last segment (midpoint rule) holds material: the
     # shader reads its transfer-function entry from the pre-integration texture's last row, which is
     # wider than the table (512 entries at most) for 1024 entries, whose table intervals then span
     # two of its intervals. Measured: max 0.008 levels at both sizes, mean 0.0006 / 0.0002 (0.056 and
     # 0.0016 at 1024 when each table entry was integrated on its own); reading the table's last row
-    # instead gives 228 / 242 levels.
+    # instead gives 228 / 242 levels. Lookup tables of 2 and 16 entries get a table of 256 a side:
+    # max 0.063 / 0.13, mean 0.009 / 0.008, where tables of their own size put frames tens of levels
+    # off (a ramp's integral is far from bilinear across a coarse grid).
     z, y, x = np.meshgrid(*[np.linspace(0, 1, 40)] * 3, indexing="ij")
     data = (0.15 + 0.7 * (0.5 + 0.5 * np.sin(5 * x + 3 * y) * np.cos(4 * z))).astype(np.float32)
     vol = Volume(data, None, np.array([-1, -1, -1], np.float32), np.array([1, 1, 1], np.float32))
@@ -376,7 +378,8 @@ def test_pre_integrated_frames_match_the_float64_integrator(lut_size):
         assert len(r.lut) == lut_size
         img = r.render(dtype=np.float32, premultiplied=True).astype(np.float64)
         d = (img - r.render_float64(premultiplied=True)) * 255
-        assert np.abs(d).max() < 0.25 and np.abs(d).mean() < 0.01, (lut_size, step, np.abs(d).max(), np.abs(d).mean())
+        mean = 0.02 if lut_size < 256 else 0.01
+        assert np.abs(d).max() < 0.25 and np.abs(d).mean() < mean, (lut_size, step, np.abs(d).max(), np.abs(d).mean())
 
 
 # -- config ------------------------------------------------------------------------------
