@@ -196,7 +196,7 @@ fn lerp_entry(lut: &[[f32; 4]], i: usize, f: f64) -> [f64; 4] {
 
 /// The table by windows: a ramp between table entries f and b crosses
 /// d = |b - f| whole table intervals, spending len / d in each. Each
-/// interval is integrated once per d (`interval_pieces`: pieces cut at the
+/// interval is integrated once per d (`Span::pieces`: pieces cut at the
 /// lookup table's entries, where the integrand has its kinks) and the
 /// entries of each d are windows of d consecutive intervals, composed in
 /// the ramp's direction in O(1) each from running compositions within
