@@ -46,7 +46,9 @@ struct Params {
     value_offset: f32,
     // Points per unit length of unbiased frames' Poisson process.
     track_rate: f32,
-    value_pad: f32,
+    // Rows the pre-integration texture wraps its opacity sums and its
+    // transfer function into (src/preintegrate.rs `wrapped_rows`).
+    preint_rows: f32,
     // The box rays march in (a crop, or [0, extent]), same frame as positions.
     clip_lo: vec4<f32>,
     clip_hi: vec4<f32>,

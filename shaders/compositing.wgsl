@@ -49,17 +49,12 @@ fn opacity_variation(a: f32, b: f32) -> f32 {
 }
 
 // The rows below the table hold the running sums, then the transfer
-// function, each wrapped into rows as wide as the table (src/preintegrate.rs
-// `wrapped_rows`): row r holds entries r (w - 1) to r (w - 1) + w - 1.
-fn preint_wrapped_rows() -> i32 {
-    let w = i32(textureDimensions(preint).x);
-    let m = i32(P.lut_size);
-    return select(1, (m - 2) / (w - 1) + 1, m > w);
-}
-
+// function, each wrapped into P.preint_rows rows as wide as the table
+// (src/preintegrate.rs `wrapped_rows`): row r holds entries r (w - 1) to
+// r (w - 1) + w - 1.
 fn preint_sum_at(i: i32) -> vec2<i32> {
-    let w1 = i32(textureDimensions(preint).x) - 1;
-    let r = min(i / w1, preint_wrapped_rows() - 1);
+    let w1 = i32(P.preint_side) - 1;
+    let r = min(i / w1, i32(P.preint_rows) - 1);
     return vec2<i32>(i - r * w1, i32(P.preint_side) + r);
 }
 
@@ -67,12 +62,11 @@ fn preint_sum_at(i: i32) -> vec2<i32> {
 // rows comes twice, and is read between the two, where filtering mixes
 // that row with nothing but itself.
 fn preint_lut_uv(v: f32) -> vec2<f32> {
-    let size = vec2<f32>(textureDimensions(preint));
-    let rows = preint_wrapped_rows();
+    let w = P.preint_side;
     let x = clamp(v, 0.0, 1.0) * (f32(P.lut_size) - 1.0);
-    let r = min(i32(floor(x / (size.x - 1.0))), rows - 1);
-    let first = P.preint_side + f32(rows);
-    return vec2<f32>((x - f32(r) * (size.x - 1.0) + 0.5) / size.x, (first + 2.0 * f32(r) + 1.0) / size.y);
+    let r = min(floor(x / (w - 1.0)), P.preint_rows - 1.0);
+    let row = w + P.preint_rows + 2.0 * r + 1.0;
+    return vec2<f32>((x - r * (w - 1.0) + 0.5) / w, row / f32(textureDimensions(preint).y));
 }
 
 // What a Beer–Lambert march carries from segment to segment.

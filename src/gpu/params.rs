@@ -75,7 +75,9 @@ uniform_block! {
         pub value_offset: f32,
         /// Points per unit length of unbiased frames' Poisson process.
         pub track_rate: f32,
-        pub value_pad: f32,
+        /// Rows the pre-integration texture wraps its opacity sums and its
+        /// transfer function into (`preintegrate::wrapped_rows`).
+        pub preint_rows: f32,
         /// The box rays march in (a crop, or the whole volume).
         pub clip_lo: [f32; 4],
         pub clip_hi: [f32; 4],
@@ -185,7 +187,8 @@ impl Params {
             value_scale: f.value_map.scale as f32,
             value_offset: f.value_map.offset as f32,
             track_rate: finite_f32(cfg.tracking_rate(f.max_extinction / cfg.reference_step_size) / s),
-            value_pad: 0.0,
+            preint_rows: preintegrate::wrapped_rows(f.lut_size as usize, preintegrate::table_side(f.lut_size as usize))
+                as f32,
             clip_lo: v4((clip.min - b.min) * s),
             clip_hi: v4((clip.max - b.min) * s),
             tex_scale: v4(1.0 / ext),
