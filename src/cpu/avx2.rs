@@ -305,10 +305,10 @@ pub unsafe fn march<T: Texels>(
         let (x0, y0) = (_mm256_cvttps_epi32(x0), _mm256_cvttps_epi32(y0));
         // Each ray's two entries along the front value lie side by side:
         // one 256-bit load a row instead of a gather a channel and corner.
-        // Entry x0 + 1 is the sampler's x1 but at x0 = side - 1 = width - 1
-        // (front value 1), where fx is 0 and the entry after the row's last
-        // (the next row's first, finite) drops out of the lerp exactly.
-        let width = 4 * t.width;
+        // Entry x0 + 1 is the sampler's x1 but at x0 = side - 1 (front
+        // value 1), where fx is 0 and the entry after the row's last (the
+        // next row's first, finite) drops out of the lerp exactly.
+        let width = 4 * t.side;
         let at: [i32; 8] = std::mem::transmute(_mm256_add_epi32(
             _mm256_mullo_epi32(y0, _mm256_set1_epi32(width as i32)),
             _mm256_slli_epi32::<2>(x0),
@@ -316,8 +316,8 @@ pub unsafe fn march<T: Texels>(
         let (fx, fy): ([f32; 8], [f32; 8]) = (std::mem::transmute(fx), std::mem::transmute(fy));
         let base = t.texels.as_ptr() as *const f32;
         let rays: [__m128; 8] = std::array::from_fn(|l| {
-            // SAFETY: x0 < width and y0 < side: both rows' two entries lie
-            // inside the side + 2 rows.
+            // SAFETY: x0 < side and y0 < side: both rows' two entries lie
+            // inside the side + 3 rows or more (`march` checks).
             let (r0, r1) = unsafe {
                 let p = base.add(at[l] as usize);
                 (_mm256_loadu_ps(p), _mm256_loadu_ps(p.add(width)))
@@ -340,17 +340,17 @@ pub unsafe fn march<T: Texels>(
         let i0 = _mm256_cvttps_epi32(_mm256_floor_ps(_mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(lo, zero), one), m1)));
         let i1 = _mm256_cvttps_epi32(_mm256_ceil_ps(_mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(hi, zero), one), m1)));
         // Entry i of the sums, wrapped (`preintegrate::wrapped_at`): row
-        // min(i / (width - 1), rows - 1) after the table's, at i less that
+        // min(i / (side - 1), rows - 1) after the table's, at i less that
         // row's first entry. The f32 quotient of two integers under 2^24
         // floors right: an exact one is exact, and any other lies at least
-        // 1 / (width - 1) below the next integer.
-        let (w1, last) = (_mm256_set1_ps(t.width as f32 - 1.0), _mm256_set1_epi32(t.rows as i32 - 1));
+        // 1 / (side - 1) below the next integer.
+        let (w1, last) = (_mm256_set1_ps(t.side as f32 - 1.0), _mm256_set1_epi32(t.rows as i32 - 1));
         let at = |i: __m256i| {
             let q = _mm256_floor_ps(_mm256_div_ps(_mm256_cvtepi32_ps(i), w1));
             let r = _mm256_min_epi32(_mm256_cvttps_epi32(q), last);
-            let col = _mm256_sub_epi32(i, _mm256_mullo_epi32(r, _mm256_set1_epi32(t.width as i32 - 1)));
+            let col = _mm256_sub_epi32(i, _mm256_mullo_epi32(r, _mm256_set1_epi32(t.side as i32 - 1)));
             let row = _mm256_add_epi32(r, _mm256_set1_epi32(t.side as i32));
-            _mm256_slli_epi32::<2>(_mm256_add_epi32(_mm256_mullo_epi32(row, _mm256_set1_epi32(t.width as i32)), col))
+            _mm256_slli_epi32::<2>(_mm256_add_epi32(_mm256_mullo_epi32(row, _mm256_set1_epi32(t.side as i32)), col))
         };
         let base = t.texels.as_ptr() as *const f32;
         // SAFETY: i0, i1 < lut_size, so their rows are sums rows (checked

@@ -50,14 +50,13 @@ impl CpuVolume {
 }
 
 /// The pre-integration texture's texels (`gpu::resources::with_lut_row`):
-/// `side` rows of the (front, back) table, each `width` entries (optical
-/// depth in alpha, emitted colour), then `rows` rows of the running
-/// opacity sums and twice as many of the transfer function, wrapped
-/// (`preintegrate::wrapped_rows`).
+/// `side` rows of the (front, back) table, each `side` entries (optical
+/// depth in alpha, emitted colour), then `rows` rows as wide of the
+/// running opacity sums and twice as many of the transfer function,
+/// wrapped (`preintegrate::wrapped_rows`).
 #[derive(Clone, Debug, Default)]
 pub struct PreintTable {
     pub texels: Vec<[f32; 4]>,
-    pub width: usize,
     pub side: usize,
     pub rows: usize,
 }
@@ -158,9 +157,8 @@ pub fn render(frame: &Frame, out: &mut [[f32; 4]], stop: &mut dyn FnMut() -> boo
         assert!(codes.len() >= dims.iter().product::<usize>() + 3, "occupancy codes need 3 bytes of padding");
     }
     if let Some(t) = frame.preint {
-        let rows = crate::preintegrate::wrapped_rows(p.lut_size as usize, t.width);
-        let fits = t.side >= 2 && t.width >= t.side && t.rows == rows;
-        let fits = fits && t.texels.len() >= t.width * (t.side + 3 * rows);
+        let rows = crate::preintegrate::wrapped_rows(p.lut_size as usize, t.side);
+        let fits = t.side >= 2 && t.rows == rows && t.texels.len() >= t.side * (t.side + 3 * rows);
         assert!(fits, "pre-integration table");
         assert_eq!(frame.model, Model::EmissionAbsorption, "pre-integration tables are emission-absorption's");
         assert!(frame.refine <= 16, "refine");

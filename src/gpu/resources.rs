@@ -452,25 +452,24 @@ fn float_table(ctx: &GpuContext, rows: &[[f32; 4]], cap: Option<f32>) -> (wgpu::
 /// frames sample it between the two, where the sampler's filtering mixes
 /// the row with nothing but itself. Rows short of the width repeat their
 /// last entry.
-fn with_lut_row(table: &[[f32; 4]], side: usize, lut: &[[f32; 4]]) -> crate::cpu::PreintTable {
-    let width = side;
-    let rows = preintegrate::wrapped_rows(lut.len(), width);
+fn with_lut_row(table: Vec<[f32; 4]>, side: usize, lut: &[[f32; 4]]) -> crate::cpu::PreintTable {
+    let rows = preintegrate::wrapped_rows(lut.len(), side);
     let wrapped = |entries: &[[f32; 4]], twice: bool| {
         let last = entries.last().copied().unwrap_or([0.0; 4]);
         (0..rows)
             .flat_map(|r| {
-                let entry = |c: usize| entries.get(r * (width - 1) + c).copied().unwrap_or(last);
-                let row: Vec<[f32; 4]> = (0..width).map(entry).collect();
+                let entry = |c: usize| entries.get(r * (side - 1) + c).copied().unwrap_or(last);
+                let row: Vec<[f32; 4]> = (0..side).map(entry).collect();
                 let copies = if twice { 2 } else { 1 };
                 std::iter::repeat_n(row, copies).flatten()
             })
             .collect::<Vec<_>>()
     };
-    let mut texels = table.to_vec();
+    let mut texels = table;
     let sums: Vec<[f32; 4]> = preintegrate::opacity_change_sums(lut).into_iter().map(|c| [c; 4]).collect();
     texels.extend(wrapped(&sums, false));
     texels.extend(wrapped(lut, true));
-    crate::cpu::PreintTable { texels, width, side, rows }
+    crate::cpu::PreintTable { texels, side, rows }
 }
 
 /// The transfer-function table and what is derived from it.
@@ -560,7 +559,7 @@ impl Tables {
         }
         let side = preintegrate::table_side(self.rows.len());
         let table = preintegrate::table(&self.rows, key.len_over_ref, key.form);
-        let texels = with_lut_row(&table, side, &self.rows);
+        let texels = with_lut_row(table, side, &self.rows);
         // f16 tops out at 65504: deeper segments are opaque anyway.
         let (format, bytes) = float_table(ctx, &texels.texels, Some(6.0e4));
         let height = (side + 3 * texels.rows) as u32;
