@@ -83,8 +83,10 @@ pub fn wrapped_rows(n: usize, width: usize) -> usize {
     }
 }
 
-/// Row and column of entry `i` in `rows` wrapped rows of `width`.
-pub fn wrapped_at(i: usize, width: usize, rows: usize) -> (usize, usize) {
+/// Row and column of entry `i` in `rows` wrapped rows of `width`: the rule
+/// the shader and the native march each write out, checked here.
+#[cfg(test)]
+fn wrapped_at(i: usize, width: usize, rows: usize) -> (usize, usize) {
     let row = (i / (width - 1).max(1)).min(rows - 1);
     (row, i - row * (width - 1))
 }

@@ -339,7 +339,7 @@ pub unsafe fn march<T: Texels>(
         let m1 = _mm256_set1_ps(p.lut_size as f32 - 1.0);
         let i0 = _mm256_cvttps_epi32(_mm256_floor_ps(_mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(lo, zero), one), m1)));
         let i1 = _mm256_cvttps_epi32(_mm256_ceil_ps(_mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(hi, zero), one), m1)));
-        // Entry i of the sums, wrapped (`preintegrate::wrapped_at`): row
+        // Entry i of the sums, wrapped (`preintegrate::wrapped_rows`): row
         // min(i / (side - 1), rows - 1) after the table's, at i less that
         // row's first entry. The f32 quotient of two integers under 2^24
         // floors right: an exact one is exact, and any other lies at least
