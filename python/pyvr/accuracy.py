@@ -44,6 +44,19 @@ REFINED_COST = 1.7 * PREINTEGRATED_COST
 # segments refined costs 1.3x a midpoint frame per segment (the helix), so a
 # shorter step would not pay for the pilots.
 REFINED_START = 1.5
+# Where Bergner's TF-limited step is under this fraction of a voxel,
+# config_for_error searches only the segment kinds (pre-integrated, refined),
+# from steps of 1/SEGMENT_START of a voxel, against a refined reference at
+# half that step: on the accuracy benchmark the helix (a TF-limited step of
+# 0.003 voxel) and the narrow peaks (0.09) are there, Shepp-Logan (0.21; the
+# midpoint kind wins it) is not.
+SEGMENTS_ONLY = 1 / 8
+SEGMENT_START = 16
+# A step commensurate with the voxels puts samples at the same places in
+# every voxel along an axis-aligned stretch, where their errors add up
+# instead of averaging out; the segment search's steps are offset from the
+# voxel's binary fractions by this factor.
+OFF_GRID = 1.09
 
 
 def refined_cost(samples: float, segments: float) -> float:
@@ -261,6 +274,17 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[in
     than a segment's. Sample counts compare configs on the same rays, so
     they are taken on a pilot of a quarter of the pilot's side.
 
+    Where the transfer function's features are far narrower than a voxel
+    (emission-absorption, TF-limited step under SEGMENTS_ONLY of the
+    spacing), the midpoint kind is not searched: its pilots would sample
+    at a fraction of that step (the helix's step threshold: 0.003 voxel)
+    and cost more than the choice they lose to. The pre-integrated and
+    refined kinds are then searched as above from a step of 1/SEGMENT_START
+    of a voxel (times OFF_GRID, so that samples do not fall at the same places
+    in every voxel), against a refined pre-integrated reference at half
+    that step; where neither passes there, the reference's step is halved
+    once, and then the full search runs.
+
     Above one level the fine pilot is coarser by the target's fourth root:
     its own error, falling as h to h^2, is then a smaller share of the
     budget than at one level.
@@ -324,8 +348,11 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[in
             samples[h, pre, refine] = renderer.last_frame_stats["samples"]
         return samples[h, pre, refine]
 
+    # The pilot the others are measured against: (step, pre-integrated, refine).
+    reference = None
+
     def error(h, pre, k=0):
-        return float(np.abs(pilot_image(h, pre, k) - pilot_image(h_fine)).max() * LEVELS)
+        return float(np.abs(pilot_image(h, pre, k) - pilot_image(*reference)).max() * LEVELS)
 
     def largest_step(start, pre=False, between=(2**0.5, 2**0.25), leap=1, final=True, k=0):
         h, err = start, error(start, pre, k)
@@ -354,21 +381,13 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[in
                 h, err = h * f, e
         return h, err
 
-    h_fine = max(initial_step(feats, cfg.reference_step_size) / 4, feats["spacing"] / 16)
-    h_fine *= max(1.0, max_error_levels) ** 0.25
-    for attempt in range(4):
-        h, err = largest_step(h_fine, leap=4, final=attempt == 3)
-        if h > h_fine or attempt == 3:
-            break
-        h_fine /= 2
-    pre, k, h_mid = False, 0, h
-    h_pre, err_pre, h_ref = 0.0, 0.0, 0.0
-    tf_limited = tf_limited_step(feats) < 0.5 * feats["spacing"]
-    if cfg.model == "emission_absorption" and tf_limited and 1.5 * h <= longest:
-        first = 1.5 * h
-        if error(first, True) <= budget:
-            h_pre, err_pre = largest_step(first, True)
-            if h_pre > PREINTEGRATED_COST * h:
+    def segment_kinds(h, err, pre, first_pre):
+        """Pre-integrated segments from `first_pre`, then refined ones, each
+        taken where it beats the choice so far (h, err, pre; h None: none)."""
+        k, h_pre, h_ref = 0, 0.0, 0.0
+        if first_pre <= longest and error(first_pre, True) <= budget:
+            h_pre, err_pre = largest_step(first_pre, True)
+            if h is None or h_pre > PREINTEGRATED_COST * h:
                 pre, h, err = True, h_pre, err_pre
         # Refined segments, where they are cheaper than both: searched from
         # REFINED_START times the step of the choice so far over its weight
@@ -377,22 +396,58 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[in
         # the step), and taken where the pilot at the largest step they
         # keep within the budget costs less.
         weight = PREINTEGRATED_COST if pre else 1.0
-        first = REFINED_START * h / weight
+        first = first_pre if h is None else REFINED_START * h / weight
 
         def cost(h_k):
             return refined_cost(samples_taken(h_k, True, REFINE), samples_taken(h_k, True, 0))
 
         if first <= longest:
-            so_far = weight * samples_taken(h, pre, 0)
+            so_far = np.inf if h is None else weight * samples_taken(h, pre, 0)
             if cost(first) < 2 * so_far and error(first, True, REFINE) <= budget:
                 h_ref, err_ref = largest_step(first, True, between=(2**0.5,), leap=2, k=REFINE)
                 if cost(h_ref) < so_far:
                     pre, k, h, err = True, REFINE, h_ref, err_ref
+        return h, err, pre, k, h_pre, h_ref
+
+    ea = cfg.model == "emission_absorption"
+    tf_limited = tf_limited_step(feats) < 0.5 * feats["spacing"]
+    h, err, pre, k, h_mid, h_pre, h_ref = None, 0.0, False, 0, 0.0, 0.0, 0.0
+    if ea and tf_limited_step(feats) < SEGMENTS_ONLY * feats["spacing"]:
+        # The transfer function's features are so narrow against the voxels
+        # that midpoint pilots would have to sample them finer still (the
+        # helix's step threshold: 2e-4 of a voxel), at many times a
+        # segment kind's frame. The segment kinds are searched alone,
+        # against a refined pre-integrated reference: its refined segments
+        # sample the volume REFINE times as finely (where the midpoint
+        # reference would resolve the same threshold), its others integrate
+        # the transfer function exactly along their ramp.
+        # Where neither passes at its start, the reference's step is halved
+        # once; then the full search below decides.
+        h_seg = feats["spacing"] / (2 * SEGMENT_START) * OFF_GRID * max(1.0, max_error_levels) ** 0.25
+        for attempt in range(2):
+            reference = (h_seg, True, REFINE)
+            h, err, pre, k, h_pre, h_ref = segment_kinds(None, 0.0, False, 2 * h_seg)
+            if h is not None:
+                break
+            h_seg /= 2
+    if h is None:
+        h_fine = max(initial_step(feats, cfg.reference_step_size) / 4, feats["spacing"] / 16)
+        h_fine *= max(1.0, max_error_levels) ** 0.25
+        for attempt in range(4):
+            reference = (h_fine, False, 0)
+            h, err = largest_step(h_fine, leap=4, final=attempt == 3)
+            if h > h_fine or attempt == 3:
+                break
+            h_fine /= 2
+        h_mid = h
+        if ea and tf_limited and 1.5 * h <= longest:
+            h, err, pre, k, h_pre, h_ref = segment_kinds(h, err, False, 1.5 * h)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)
         out = cfg.replace(step_size=h, max_steps=int(np.ceil(longest / h)) + 2, pre_integrated=pre, refine=k,
                           jitter=False, early_ray_termination=threshold < 1.0, opacity_threshold=max(0.0, threshold))
-    return out, {"step": h, "pilot_step_error": err, "pilot_fine_step": h_fine, "threshold": threshold,
+    return out, {"step": h, "pilot_step_error": err, "pilot_fine_step": reference[0],
+                 "reference": "refined" if reference[2] else "midpoint", "threshold": threshold,
                  "tf_limited_step": tf_limited_step(feats),
                  "pre_integrated": pre, "refine": k, "midpoint_step": h_mid, "pre_integrated_step": h_pre,
                  "refined_step": h_ref,
