@@ -77,6 +77,19 @@ SCENES = {
 }
 
 
+def choose_traced(r, target, keyword):
+    """config_for_error's choice, its prediction, and the `keyword` argument
+    (config, size) of every pilot it rendered."""
+    seen = []
+    render = r.render
+    r.render = lambda *a, **k: seen.append(k.get(keyword)) or render(*a, **k)
+    try:
+        cfg, pred = accuracy.config_for_error(r, target)
+    finally:
+        r.render = render
+    return cfg, pred, seen
+
+
 @pytest.mark.parametrize("name", list(SCENES))
 @pytest.mark.parametrize("target", [1.0, 4.0])
 def test_config_for_error_meets_its_target_at_a_fair_cost(name, target):
@@ -159,10 +172,7 @@ def test_config_for_error_tries_pre_integration_only_where_the_tf_limits_the_ste
     # (none of the pipeline compilation and table builds it would cost).
     vol, otf = SCENES[name]()
     r = make(vol, otf)
-    rendered = []
-    render = r.render
-    r.render = lambda *a, **k: rendered.append(k.get("config")) or render(*a, **k)
-    cfg, pred = accuracy.config_for_error(r, 4.0)
+    cfg, pred, rendered = choose_traced(r, 4.0, "config")
     limited = pred["tf_limited_step"] < 0.5 * pred["spacing"]
     assert limited == (name == "narrow_peaks"), (name, pred["tf_limited_step"], pred["spacing"])
     assert any(c.pre_integrated for c in rendered) == limited
@@ -180,11 +190,7 @@ def test_config_for_error_searches_only_segments_where_the_tf_is_far_narrower_th
     vol = Volume(create_sample_volume(48, "helix"), None, *BOX)
     r = make(vol, OpacityTransferFunction.one_step(0.5, 0.0, 0.6))
     conv, _ = accuracy.converged_image(r, tolerance=0.05)
-    rendered = []
-    render = r.render
-    r.render = lambda *a, **k: rendered.append(k.get("config")) or render(*a, **k)
-    cfg, pred = accuracy.config_for_error(r, target)
-    r.render = render
+    cfg, pred, rendered = choose_traced(r, target, "config")
     assert pred["tf_limited_step"] < accuracy.SEGMENTS_ONLY * pred["spacing"], pred
     assert pred["reference"] == "refined" and pred["midpoint_step"] == 0.0, pred
     assert all(c.pre_integrated for c in rendered), [c for c in rendered if not c.pre_integrated]
@@ -205,11 +211,7 @@ def test_config_for_error_refines_where_the_frame_costs_less():
     vol, otf = SCENES["narrow_peaks"]()
     r = make(vol, otf)
     conv, _ = accuracy.converged_image(r, tolerance=0.05)
-    sizes = []
-    render = r.render
-    r.render = lambda *a, **k: sizes.append(k.get("size")) or render(*a, **k)
-    cfg, pred = accuracy.config_for_error(r, TARGET)
-    r.render = render
+    cfg, pred, sizes = choose_traced(r, TARGET, "size")
     # Sample counts compare configs on the same rays: they are taken at a
     # quarter of the pilot's side (at least 16 pixels), the errors on the pilot.
     assert set(sizes) == {(40, 32), (16, 16)}, sizes
