@@ -415,7 +415,7 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[in
     if ea and tf_limited_step(feats) < SEGMENTS_ONLY * feats["spacing"]:
         # The transfer function's features are so narrow against the voxels
         # that midpoint pilots would have to sample them finer still (the
-        # helix's step threshold: 2e-4 of a voxel), at many times a
+        # helix's step threshold: 0.003 of a voxel), at many times a
         # segment kind's frame. The segment kinds are searched alone,
         # against a refined pre-integrated reference: its refined segments
         # sample the volume REFINE times as finely (where the midpoint
