@@ -201,7 +201,7 @@ def test_config_for_error_searches_only_segments_where_the_tf_is_far_narrower_th
 
 
 def test_config_for_error_refines_where_the_frame_costs_less():
-    TARGET = 1.0
+    target = 1.0
     # On the small narrow peaks refined segments keep 1 level at a step 4.6x
     # the pre-integrated one and the frame costs less (measured: 31.3k
     # samples, 19.1k of them segments, weighing 51.9k against the
@@ -211,7 +211,7 @@ def test_config_for_error_refines_where_the_frame_costs_less():
     vol, otf = SCENES["narrow_peaks"]()
     r = make(vol, otf)
     conv, _ = accuracy.converged_image(r, tolerance=0.05)
-    cfg, pred, sizes = choose_traced(r, TARGET, "size")
+    cfg, pred, sizes = choose_traced(r, target, "size")
     # Sample counts compare configs on the same rays: they are taken at a
     # quarter of the pilot's side (at least 16 pixels), the errors on the pilot.
     assert set(sizes) == {(40, 32), (16, 16)}, sizes
@@ -228,4 +228,4 @@ def test_config_for_error_refines_where_the_frame_costs_less():
     e_pre, pre = frame(0, pred["pre_integrated_step"])
     assert (accuracy.refined_cost(refined, segments) < accuracy.PREINTEGRATED_COST * pre) == (cfg.refine > 0)
     assert cfg.refine == accuracy.REFINE, (refined, pre)
-    assert e_refined <= TARGET and e_pre <= TARGET, (e_refined, e_pre)
+    assert e_refined <= target and e_pre <= target, (e_refined, e_pre)
