@@ -410,9 +410,10 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[in
         return h, err, pre, k, h_pre, h_ref
 
     ea = cfg.model == "emission_absorption"
-    tf_limited = tf_limited_step(feats) < 0.5 * feats["spacing"]
+    tf_step = tf_limited_step(feats)
+    tf_limited = tf_step < 0.5 * feats["spacing"]
     h, err, pre, k, h_mid, h_pre, h_ref = None, 0.0, False, 0, 0.0, 0.0, 0.0
-    if ea and tf_limited_step(feats) < SEGMENTS_ONLY * feats["spacing"]:
+    if ea and tf_step < SEGMENTS_ONLY * feats["spacing"]:
         # The transfer function's features are so narrow against the voxels
         # that midpoint pilots would have to sample them finer still (the
         # helix's step threshold: 0.003 of a voxel), at many times a
@@ -448,7 +449,7 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[in
                           jitter=False, early_ray_termination=threshold < 1.0, opacity_threshold=max(0.0, threshold))
     return out, {"step": h, "pilot_step_error": err, "pilot_fine_step": reference[0],
                  "reference": "refined" if reference[2] else "midpoint", "threshold": threshold,
-                 "tf_limited_step": tf_limited_step(feats),
+                 "tf_limited_step": tf_step,
                  "pre_integrated": pre, "refine": k, "midpoint_step": h_mid, "pre_integrated_step": h_pre,
                  "refined_step": h_ref,
                  "pilot_renders": len(images) + len(samples), "pilot_size": size,
