@@ -290,9 +290,7 @@ fn segment_past(r: Ray, i: u32, si: u32, mid: f32, exit: f32) -> u32 {
 // index of the first segment past the cube around its cell, or 0xffffffff.
 // An empty segment looks for an empty cube; a full segment with extinction
 // for a uniform one. One lookup serves both, so lanes of either kind run it
-// together. For pre-integrated frames the host widens each cell's value
-// range to the cells a segment centred in it can reach, so every segment
-// centred in an empty cell is empty whole, as a midpoint sample is.
+// together.
 fn cube_leap(r: Ray, i: u32, si: u32, mid: f32, tc: vec3<f32>, empty: bool) -> u32 {
     var dir = r.d;
     if (BACK_TO_FRONT) {
@@ -303,6 +301,61 @@ fn cube_leap(r: Ray, i: u32, si: u32, mid: f32, tc: vec3<f32>, empty: bool) -> u
         return 0xffffffffu;
     }
     return segment_past(r, i, si, mid, exit);
+}
+
+// Where pre-integrated segment i (span `sp`) may leap or run: from its
+// near end (in the march's direction), the uniform cube around that end's
+// cell, or the empty cubes the ray crosses from there (up to CHAIN of
+// them, each looked up a quarter voxel past the last: a cell's range holds
+// every value within half a voxel of it), and the march index of the first
+// segment not inside them whole, ends and ramp between them (so a cell
+// needs only its own range, however long the step). (that index, 1 for a
+// uniform cube) where segment i itself lies inside, (0xffffffff, 0) where
+// not. Segments are nominal, from (k + shift) to (k + shift + 1) steps past
+// the entry, compared a thousandth of a step generously.
+fn whole_segments(r: Ray, i: u32, sp: vec2<f32>) -> vec2<u32> {
+    var dir = r.d;
+    var near = sp.x;
+    if (BACK_TO_FRONT) {
+        dir = -r.d;
+        near = sp.x + sp.y;
+    }
+    let du = (dir * P.tex_scale.xyz).zyx * vec3<f32>(textureDimensions(volume));
+    let nudge = 0.25 / max(abs(du.x), max(abs(du.y), abs(du.z)));
+    var sign = 1.0;
+    if (BACK_TO_FRONT) {
+        sign = -1.0;
+    }
+    var t = near;
+    var far = near;
+    var uniform = false;
+    for (var c = 0u; c < CHAIN; c++) {
+        let tc = tex_of(point_at(r, t));
+        let code = cell_code(tc);
+        let flagged = code >= UNIFORM_FLAG;
+        let first = c == 0u;
+        uniform = first && flagged && UNIFORM_CELLS;
+        let radius = select(select(0u, code, SKIP_EMPTY && !flagged), code - UNIFORM_FLAG, uniform);
+        let exit = exit_of_cube(tc, dir, radius);
+        if (exit < 0.0) {
+            break;
+        }
+        far = t + sign * exit;
+        t = far + sign * nudge;
+        if (uniform) {
+            break;
+        }
+    }
+    let h = P.step_size;
+    // The first segment reaching past `far`, in march order.
+    var k = floor(far / h - r.shift - 1e-3);
+    if (BACK_TO_FRONT) {
+        k = f32(r.n) - ceil(far / h - r.shift + 1e-3);
+    }
+    if (!(k > f32(i))) {
+        return vec2<u32>(0xffffffffu, 0u);
+    }
+    return vec2<u32>(u32(min(k, f32(r.end))), u32(uniform));
 }
 
 // A full segment centred in a uniform cell, taken together with the
@@ -452,22 +505,32 @@ fn march_integrate(r: Ray) {
         var g: Segment;
         taken += 1u;
         var again = false;
+        var run = 0xffffffffu;
         if (PRE_INTEGRATED) {
+            // Decided from the cells alone, before the volume is read.
+            if (SKIP_EMPTY || UNIFORM_CELLS) {
+                let cube = whole_segments(r, i, sp);
+                if (cube.x != 0xffffffffu && cube.y == 0u) {
+                    i = cube.x - 1u;
+                    continue;
+                }
+                run = cube.x;
+            }
             g = preintegrated_segment(r, si, sp, &s, &again);
+            if (!(g.x > 0.0) || sp.y != P.step_size) {
+                run = 0xffffffffu;
+            }
         } else {
             g = midpoint_segment(volume_texel(tc), sp.y);
-        }
-        // A segment that only fetched its near value may leap too: centred
-        // in an empty cell, it is empty whatever its values.
-        let empty = !(g.x > 0.0);
-        var run = 0xffffffffu;
-        if ((SKIP_EMPTY && empty) || (UNIFORM_CELLS && !empty && sp.y == P.step_size)) {
-            let next = cube_leap(r, i, si, mid, tc, empty);
-            if (empty && next != 0xffffffffu) {
-                i = next - 1u;
-                continue;
+            let empty = !(g.x > 0.0);
+            if ((SKIP_EMPTY && empty) || (UNIFORM_CELLS && !empty && sp.y == P.step_size)) {
+                let next = cube_leap(r, i, si, mid, tc, empty);
+                if (empty && next != 0xffffffffu) {
+                    i = next - 1u;
+                    continue;
+                }
+                run = next;
             }
-            run = next;
         }
         if (again) {
             // The same segment again, now with its near value (u32

@@ -34,6 +34,8 @@ override NORMALS_IN_VOLUME: bool = false;
 override SKIP_EMPTY: bool = true;
 // Composite the segments in a cube of uniform cells as one segment.
 override UNIFORM_CELLS: bool = false;
+// Empty cubes a pre-integrated leap crosses at most (compositing.wgsl `whole_segments`).
+const CHAIN: u32 = 4u;
 
 // The side, in workgroups, of the tiles a dispatch runs in (main.wgsl).
 override GROUP_TILE: u32 = 8u;

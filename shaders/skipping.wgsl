@@ -27,15 +27,28 @@ fn empty_cell_exit(tc: vec3<f32>, d: vec3<f32>) -> f32 {
 // one colour and opacity around a uniform cell (g = UNIFORM_FLAG + its
 // radius; -1 if the cell is not uniform).
 fn cube_exit(tc: vec3<f32>, d: vec3<f32>, uniform: bool) -> f32 {
-    let dims = vec3<f32>(textureDimensions(volume));
-    let u = voxel_coords(tc);
-    let c0 = cell_of(u);
-    let code = textureLoad(occupancy, c0, 0).g;
+    let code = cell_code(tc);
     let flagged = code >= UNIFORM_FLAG;
-    let radius = i32(select(select(0u, code, !flagged), select(0u, code - UNIFORM_FLAG, flagged), uniform));
+    let radius = select(select(0u, code, !flagged), select(0u, code - UNIFORM_FLAG, flagged), uniform);
+    return exit_of_cube(tc, d, radius);
+}
+
+// The occupancy code of the cell holding texture coordinate `tc`.
+fn cell_code(tc: vec3<f32>) -> u32 {
+    return textureLoad(occupancy, cell_of(voxel_coords(tc)), 0).g;
+}
+
+// Ray parameter at which the ray through `tc` along `d` leaves the cube of
+// 2 radius - 1 cells a side centred on tc's cell, measured from tc, or -1
+// for radius 0.
+fn exit_of_cube(tc: vec3<f32>, d: vec3<f32>, radius_code: u32) -> f32 {
+    let radius = i32(radius_code);
     if (radius == 0) {
         return -1.0;
     }
+    let dims = vec3<f32>(textureDimensions(volume));
+    let u = voxel_coords(tc);
+    let c0 = cell_of(u);
     let lo = vec3<f32>(c0 - (radius - 1)) * CELL;
     let hi = vec3<f32>(c0 + radius) * CELL;
     // Voxel units per unit of t along the ray, in texture axis order (the
@@ -48,14 +61,14 @@ fn cube_exit(tc: vec3<f32>, d: vec3<f32>, uniform: bool) -> f32 {
     return max(min(ta.x, min(ta.y, ta.z)), 0.0);
 }
 
-// March indices [a, b) outside which every segment is centred in an empty
-// cell: those of the ray's segments whose midpoints may lie in the box of
-// cells that are not empty (Params.occupied_*). A ray marches from a and
-// is done at b. (0, r.n) where the box is not known; (0, 0) where the ray
-// misses it. Nominal midpoints, (k + shift + 1/2) steps past the entry, are
-// compared a thousandth of a step generously, as leaps do; the chord's first
-// and last segments, which may be shorter, stay in whenever their
-// neighbours are.
+// March indices [a, b) outside which every segment is empty: those of the
+// ray's segments whose midpoints (or, pre-integrated, any of whose points)
+// may lie in the box of cells that are not empty (Params.occupied_*). A ray
+// marches from a and is done at b. (0, r.n) where the box is not known;
+// (0, 0) where the ray misses it. Nominal segments, from (k + shift) to
+// (k + shift + 1) steps past the entry, are compared a thousandth of a step
+// generously, as leaps do; the chord's first and last segments, which may
+// be shorter, stay in whenever their neighbours are.
 fn occupied_window(r: Ray) -> vec2<u32> {
     if (!SKIP_EMPTY || P.bricked == 1u || P.occupied_hi.w != 1.0) {
         return vec2<u32>(0u, r.n);
@@ -81,8 +94,10 @@ fn occupied_window(r: Ray) -> vec2<u32> {
         return vec2<u32>(0u);
     }
     let h = P.step_size;
-    var lo = u32(clamp(ceil(a / h - 0.5 - r.shift - 1e-3), 0.0, f32(r.n)));
-    var hi = u32(clamp(floor(b / h - 0.5 - r.shift + 1e-3) + 1.0, 0.0, f32(r.n)));
+    // Steps from a segment's midpoint to the farthest of its points that count.
+    let reach = select(0.0, 0.5, PRE_INTEGRATED);
+    var lo = u32(clamp(ceil(a / h - 0.5 - reach - r.shift - 1e-3), 0.0, f32(r.n)));
+    var hi = u32(clamp(floor(b / h - 0.5 + reach - r.shift + 1e-3) + 1.0, 0.0, f32(r.n)));
     if (lo <= 1u) {
         lo = 0u;
     }

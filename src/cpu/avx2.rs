@@ -2,7 +2,7 @@
 //! segment index, leaping or compositing as the shader's invocation would,
 //! until every lane's ray is done.
 
-use super::{Frame, Model, Stats, CELL, TILE};
+use super::{Frame, Model, Stats, CELL, CHAIN, TILE};
 use std::arch::x86_64::*;
 use std::sync::atomic::{AtomicBool, Ordering};
 
@@ -223,6 +223,11 @@ pub unsafe fn march<T: Texels>(
         std::array::from_fn(|k| _mm256_mul_ps(_mm256_mul_ps(rays.d[k], set(p.tex_scale[k])), set(dims[k] as f32)));
     let moving: [__m256; 3] = std::array::from_fn(|k| _mm256_cmp_ps::<_CMP_NEQ_OQ>(per[k], _mm256_setzero_ps()));
     let ahead: [__m256; 3] = std::array::from_fn(|k| _mm256_cmp_ps::<_CMP_GT_OQ>(per[k], _mm256_setzero_ps()));
+    // A quarter voxel along the axis the ray crosses fastest (compositing.wgsl `whole_segments`).
+    let nudge = _mm256_div_ps(
+        _mm256_set1_ps(0.25),
+        _mm256_max_ps(abs(per[0]), _mm256_max_ps(abs(per[1]), abs(per[2]))),
+    );
     let (shift, chord, n, limit) = (rays.shift, rays.chord, rays.n, rays.hi);
     let mut i = rays.lo;
 
@@ -371,9 +376,102 @@ pub unsafe fn march<T: Texels>(
         let start_at = _mm256_andnot_ps(before, a);
         let seg = _mm256_blendv_ps(_mm256_max_ps(_mm256_min_ps(h, _mm256_sub_ps(chord, a)), zero), first_len, before);
         let mid = _mm256_fmadd_ps(seg, _mm256_set1_ps(0.5), start_at);
+        let mut again = zero;
+        let coords = |at: __m256| -> [__m256; 3] { std::array::from_fn(|k| _mm256_fmadd_ps(per[k], at, start[k])) };
+        // Leaps (compositing.wgsl `cube_leap`, skipping.wgsl `cube_exit`).
+        // Plain segments leap from their midpoint: the shader leaps from a
+        // segment that came out empty and is centred in an empty cell, and
+        // every segment centred there comes out empty, so the cell alone
+        // decides, before the volume is read. Pre-integrated ones leap or
+        // run from their near end, over the segments inside the cube whole
+        // (compositing.wgsl `whole_segments`).
+        let mut leap = zero;
+        let mut uniform = zero;
+        let mut next = i;
+        if !radius_grid.is_null() {
+            let flag = _mm256_set1_epi32(crate::occupancy::UNIFORM_FLAG as i32);
+            // The code of the cell holding ray parameter `at`, and the ray's
+            // exit (from there) from the cube of radius `cube` around it.
+            let cell_code = |at: __m256| -> ([__m256; 3], [__m256i; 3], __m256i) {
+                let um = coords(at);
+                let uc: [__m256; 3] = std::array::from_fn(|k| _mm256_add_ps(um[k], border));
+                let c: [__m256i; 3] = std::array::from_fn(|k| {
+                    let ci = _mm256_cvttps_epi32(_mm256_floor_ps(_mm256_mul_ps(uc[k], cell)));
+                    _mm256_min_epi32(_mm256_max_epi32(ci, zi), grid_hi[k])
+                });
+                let at = _mm256_add_epi32(
+                    _mm256_add_epi32(_mm256_mullo_epi32(c[0], grid_stride[0]), _mm256_mullo_epi32(c[1], grid_stride[1])),
+                    c[2],
+                );
+                // SAFETY: c is clamped into the grid, whose codes `radius_grid` holds.
+                let code = unsafe { _mm256_i32gather_epi32::<1>(radius_grid, at) };
+                (uc, c, _mm256_and_si256(code, _mm256_set1_epi32(0xff)))
+            };
+            let exit_of = |uc: &[__m256; 3], c: &[__m256i; 3], cube: __m256i| -> __m256 {
+                let mut exit = _mm256_set1_ps(3.0e38);
+                for k in 0..3 {
+                    let lo = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_sub_epi32(c[k], _mm256_sub_epi32(cube, onei))), _mm256_set1_ps(CELL));
+                    let up = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_add_epi32(c[k], cube)), _mm256_set1_ps(CELL));
+                    let side = _mm256_blendv_ps(lo, up, ahead[k]);
+                    let tk = _mm256_div_ps(_mm256_sub_ps(side, uc[k]), _mm256_blendv_ps(one, per[k], moving[k]));
+                    exit = _mm256_min_ps(exit, _mm256_blendv_ps(_mm256_set1_ps(3.0e38), tk, moving[k]));
+                }
+                _mm256_max_ps(exit, zero)
+            };
+            let lowest = _mm256_cvtepi32_ps(_mm256_add_epi32(i, onei));
+            let (uc, c, code) = cell_code(if f.preint.is_some() { start_at } else { mid });
+            // Codes from UNIFORM_FLAG up mark uniform cells, which are not empty.
+            let flagged = _mm256_cmpgt_epi32(code, _mm256_sub_epi32(flag, onei));
+            let radius = _mm256_andnot_si256(flagged, code);
+            if f.skip_empty {
+                leap = _mm256_and_ps(active, as_ps(_mm256_cmpgt_epi32(radius, zi)));
+            }
+            // A cell holds an empty radius or a uniform one: one exit serves both.
+            let mut cube = _mm256_and_si256(_mm256_castps_si256(leap), radius);
+            if f.uniform_runs {
+                let uniform_radius = _mm256_and_si256(flagged, _mm256_sub_epi32(code, flag));
+                uniform = _mm256_and_ps(active, as_ps(_mm256_cmpgt_epi32(uniform_radius, zi)));
+                cube = _mm256_or_si256(cube, uniform_radius);
+            }
+            let exit = exit_of(&uc, &c, cube);
+            let kf = if f.preint.is_some() {
+                // compositing.wgsl `whole_segments`: on through the empty
+                // cubes after the first, each looked up a quarter voxel past
+                // the last, to `far`; the first segment reaching past it.
+                let mut far = _mm256_add_ps(start_at, exit);
+                let mut walking = leap;
+                for _ in 1..CHAIN {
+                    if _mm256_movemask_ps(walking) == 0 {
+                        break;
+                    }
+                    let (uc, c, code) = cell_code(_mm256_add_ps(far, nudge));
+                    let flagged = _mm256_cmpgt_epi32(code, _mm256_sub_epi32(flag, onei));
+                    let radius = _mm256_andnot_si256(flagged, code);
+                    walking = _mm256_and_ps(walking, as_ps(_mm256_cmpgt_epi32(radius, zi)));
+                    let exit = exit_of(&uc, &c, radius);
+                    far = _mm256_blendv_ps(far, _mm256_add_ps(_mm256_add_ps(far, nudge), exit), walking);
+                }
+                let kf = _mm256_floor_ps(_mm256_sub_ps(_mm256_div_ps(far, h), _mm256_add_ps(shift, _mm256_set1_ps(1e-3))));
+                // Segment i must lie inside.
+                let inside = _mm256_cmp_ps::<_CMP_GE_OQ>(kf, lowest);
+                leap = _mm256_and_ps(leap, inside);
+                uniform = _mm256_and_ps(uniform, inside);
+                kf
+            } else {
+                // compositing.wgsl `segment_past`: a thousandth of a step early.
+                _mm256_ceil_ps(_mm256_sub_ps(
+                    _mm256_sub_ps(_mm256_div_ps(_mm256_add_ps(mid, exit), h), _mm256_set1_ps(0.5)),
+                    _mm256_add_ps(shift, _mm256_set1_ps(1e-3)),
+                ))
+            };
+            let kf = _mm256_min_ps(_mm256_max_ps(kf, lowest), _mm256_cvtepi32_ps(n));
+            next = _mm256_cvttps_epi32(kf);
+        }
         // A full pre-integrated segment fetches its far boundary, or first
         // its near one when that is not carried (`primes`: marched again).
-        // A refined one takes the midpoint sample of its next piece.
+        // A refined one takes the midpoint sample of its next piece. None
+        // of this waits for the leap (lanes that leap read nothing): the
+        // volume's read then overlaps the cells' lookup.
         let (mut carried, mut primes, mut at, mut in_sub) = (zero, zero, mid, zero);
         let full = _mm256_cmp_ps::<_CMP_EQ_OQ>(seg, h);
         if f.preint.is_some() {
@@ -389,67 +487,8 @@ pub unsafe fn march<T: Texels>(
             at = _mm256_blendv_ps(_mm256_blendv_ps(mid, start_at, primes), _mm256_add_ps(start_at, h), carried);
             at = _mm256_blendv_ps(at, at_sub, in_sub);
         }
-        let mut again = zero;
-        let coords = |at: __m256| -> [__m256; 3] { std::array::from_fn(|k| _mm256_fmadd_ps(per[k], at, start[k])) };
-        // Leaps (compositing.wgsl `cube_leap`, skipping.wgsl `cube_exit`),
-        // from the segment's midpoint. The shader leaps from a segment
-        // that came out empty and is centred in an empty cell; every segment
-        // centred there comes out empty, so the cell alone decides, before
-        // the volume is read: lanes that leap read nothing.
-        let mut leap = zero;
-        let mut uniform = zero;
-        let mut next = i;
-        if !radius_grid.is_null() {
-            let um = coords(mid);
-            let uc: [__m256; 3] = std::array::from_fn(|k| _mm256_add_ps(um[k], border));
-            let c: [__m256i; 3] = std::array::from_fn(|k| {
-                let ci = _mm256_cvttps_epi32(_mm256_floor_ps(_mm256_mul_ps(uc[k], cell)));
-                _mm256_min_epi32(_mm256_max_epi32(ci, zi), grid_hi[k])
-            });
-            let at = _mm256_add_epi32(
-                _mm256_add_epi32(_mm256_mullo_epi32(c[0], grid_stride[0]), _mm256_mullo_epi32(c[1], grid_stride[1])),
-                c[2],
-            );
-            let code = _mm256_and_si256(_mm256_i32gather_epi32::<1>(radius_grid, at), _mm256_set1_epi32(0xff));
-            // Codes from UNIFORM_FLAG up mark uniform cells, which are not empty.
-            let flag = _mm256_set1_epi32(crate::occupancy::UNIFORM_FLAG as i32);
-            let flagged = _mm256_cmpgt_epi32(code, _mm256_sub_epi32(flag, onei));
-            let radius = _mm256_andnot_si256(flagged, code);
-            if f.skip_empty {
-                leap = _mm256_and_ps(active, as_ps(_mm256_cmpgt_epi32(radius, zi)));
-            }
-            // A cell holds an empty radius or a uniform one: one exit serves both.
-            let mut cube = radius;
-            if f.uniform_runs {
-                let uniform_radius = _mm256_and_si256(flagged, _mm256_sub_epi32(code, flag));
-                uniform = _mm256_and_ps(active, as_ps(_mm256_cmpgt_epi32(uniform_radius, zi)));
-                cube = _mm256_or_si256(_mm256_and_si256(_mm256_castps_si256(leap), radius), uniform_radius);
-            }
-            let mut exit = _mm256_set1_ps(3.0e38);
-            for k in 0..3 {
-                let lo = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_sub_epi32(c[k], _mm256_sub_epi32(cube, onei))), _mm256_set1_ps(CELL));
-                let up = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_add_epi32(c[k], cube)), _mm256_set1_ps(CELL));
-                let side = _mm256_blendv_ps(lo, up, ahead[k]);
-                let tk = _mm256_div_ps(_mm256_sub_ps(side, uc[k]), _mm256_blendv_ps(one, per[k], moving[k]));
-                exit = _mm256_min_ps(exit, _mm256_blendv_ps(_mm256_set1_ps(3.0e38), tk, moving[k]));
-            }
-            exit = _mm256_max_ps(exit, zero);
-            // compositing.wgsl `segment_past`: a thousandth of a step early.
-            let kf = _mm256_ceil_ps(_mm256_sub_ps(
-                _mm256_sub_ps(_mm256_div_ps(_mm256_add_ps(mid, exit), h), _mm256_set1_ps(0.5)),
-                _mm256_add_ps(shift, _mm256_set1_ps(1e-3)),
-            ));
-            let lowest = _mm256_cvtepi32_ps(_mm256_add_epi32(i, onei));
-            let kf = _mm256_min_ps(_mm256_max_ps(kf, lowest), _mm256_cvtepi32_ps(n));
-            next = _mm256_cvttps_epi32(kf);
-        }
-        // Lanes that read the volume: those that do not leap, and, under
-        // pre-integration, those that leap by one segment only, whose far
-        // value the next segment carries as the shader's does.
-        let mut fetch = _mm256_andnot_ps(leap, active);
-        if f.preint.is_some() {
-            fetch = _mm256_or_ps(fetch, _mm256_and_ps(leap, as_ps(_mm256_cmpeq_epi32(next, _mm256_add_epi32(i, onei)))));
-        }
+        // Lanes that read the volume: those that do not leap.
+        let fetch = _mm256_andnot_ps(leap, active);
         let (x, add) = if _mm256_movemask_ps(fetch) == 0 {
             (zero, [zero; 3])
         } else {

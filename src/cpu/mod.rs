@@ -279,7 +279,8 @@ fn march_row(frame: &Frame, col0: u32, row: u32, out: &mut [[f32; 4]; TILE], hal
 
 /// One pixel's ray as main.wgsl builds it: its chord through the (cropped)
 /// box, segment grid and step count, and the window of segments whose
-/// midpoints may lie in occupied cells (skipping.wgsl `occupied_window`).
+/// midpoints (pre-integrated: any of whose points) may lie in occupied cells
+/// (skipping.wgsl `occupied_window`).
 /// The march builds eight at a time (`rays8`), held to this statement of
 /// the rule, one ray at a time, by its test.
 #[cfg(test)]
@@ -365,8 +366,10 @@ impl Ray {
         }
         let h = p.step_size;
         let n = self.n as f32;
-        let mut lo = (a / h - 0.5 - self.shift - 1e-3).ceil().clamp(0.0, n) as u32;
-        let mut hi = ((b / h - 0.5 - self.shift + 1e-3).floor() + 1.0).clamp(0.0, n) as u32;
+        // Steps from a segment's midpoint to the farthest of its points that count.
+        let reach = if frame.preint.is_some() { 0.5 } else { 0.0 };
+        let mut lo = (a / h - (0.5 + reach) - self.shift - 1e-3).ceil().clamp(0.0, n) as u32;
+        let mut hi = ((b / h - (0.5 - reach) - self.shift + 1e-3).floor() + 1.0).clamp(0.0, n) as u32;
         if lo <= 1 {
             lo = 0;
         }
@@ -379,3 +382,6 @@ impl Ray {
 
 /// Occupancy cells a side, in voxels (as the shader's CELL).
 pub(crate) const CELL: f32 = BLOCK as f32;
+
+/// Empty cubes a pre-integrated leap crosses at most (as the shader's CHAIN).
+pub(crate) const CHAIN: usize = 4;

@@ -592,7 +592,7 @@ impl Tables {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum OccSource {
     /// Zero opacity under this version of the transfer function, over each
-    /// cell's range or, for pre-integrated and unbiased frames, over the
+    /// cell's range or, for unbiased frames with per-cell rates, over the
     /// range of the segments centred in it (`MinMaxGrid::for_segments`);
     /// occupied cells hold the code of their largest extinction under the
     /// correction `form` (`MinMaxGrid::majorants`).

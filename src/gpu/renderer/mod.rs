@@ -440,7 +440,7 @@ impl GpuRenderer {
 
     /// The table's cells, built when the table, value map or volume changes,
     /// over the segment ranges of `last` (the grid the last frame used), so
-    /// that a pre-integrated session builds one grid per table change, not
+    /// that a session of unbiased frames builds one grid per table change, not
     /// two; a new volume starts from the cells' own ranges.
     fn table_source(&self, last: Option<OccSource>) -> OccSource {
         let (ranges, form) = match last {
@@ -451,17 +451,17 @@ impl GpuRenderer {
     }
 
     /// What decides a frame's empty cells: the iso value, or the table over
-    /// each cell's range; for pre-integrated frames and unbiased ones with
-    /// per-cell rates, over the range of the segments centred in the cell (a
-    /// leap is decided at midpoints; a segment's points are drawn at its
-    /// midpoint cell's rate). Unbiased leaps, decided at points, need only
-    /// the cell's own range.
+    /// each cell's range; for unbiased frames with per-cell rates, over the
+    /// range of the segments centred in the cell (a segment's points are
+    /// drawn at its midpoint cell's rate). Unbiased leaps, decided at points,
+    /// and pre-integrated ones, over segments that lie in a cube whole
+    /// (compositing.wgsl `whole_segments`), need only the cells' own ranges.
     pub(super) fn occupancy_source(&self, cfg: &RenderConfig) -> OccSource {
         if cfg.model == Model::Isosurface {
             return OccSource::Below(cfg.iso_value.to_bits());
         }
         let ranges = match &self.volume {
-            Some(vol) if cfg.pre_integrates() || (cfg.unbiased && self.cell_rates(cfg)) => {
+            Some(vol) if cfg.unbiased && self.cell_rates(cfg) => {
                 let extent = vol.bounds.extent().to_array();
                 segment_ranges(cfg.step_size, std::array::from_fn(|a| extent[a] / vol.dims[a] as f64))
             }
