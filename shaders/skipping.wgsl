@@ -56,7 +56,7 @@ fn exit_of_cube(tc: vec3<f32>, d: vec3<f32>, radius_code: u32) -> f32 {
     // Branch-free: lavapipe runs every side of a branch some lane takes.
     let du = (d * P.tex_scale.xyz).zyx * dims;
     let moving = du != vec3<f32>(0.0);
-    let t = (select(lo, hi, du > vec3<f32>(0.0)) - u) / select(vec3<f32>(1.0), du, moving);
+    let t = (select(lo, hi, du > vec3<f32>(0.0)) - u) * (1.0 / select(vec3<f32>(1.0), du, moving));
     let ta = select(vec3<f32>(3.0e38), t, moving);
     return max(min(ta.x, min(ta.y, ta.z)), 0.0);
 }

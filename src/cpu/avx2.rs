@@ -223,6 +223,8 @@ pub unsafe fn march<T: Texels>(
         std::array::from_fn(|k| _mm256_mul_ps(_mm256_mul_ps(rays.d[k], set(p.tex_scale[k])), set(dims[k] as f32)));
     let moving: [__m256; 3] = std::array::from_fn(|k| _mm256_cmp_ps::<_CMP_NEQ_OQ>(per[k], _mm256_setzero_ps()));
     let ahead: [__m256; 3] = std::array::from_fn(|k| _mm256_cmp_ps::<_CMP_GT_OQ>(per[k], _mm256_setzero_ps()));
+    // Ray parameter per voxel along each axis (1 where the ray does not move along it).
+    let per_voxel: [__m256; 3] = std::array::from_fn(|k| _mm256_div_ps(_mm256_set1_ps(1.0), _mm256_blendv_ps(_mm256_set1_ps(1.0), per[k], moving[k])));
     // A quarter voxel along the axis the ray crosses fastest (compositing.wgsl `whole_segments`).
     let nudge = _mm256_div_ps(
         _mm256_set1_ps(0.25),
@@ -413,7 +415,7 @@ pub unsafe fn march<T: Texels>(
                     let lo = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_sub_epi32(c[k], _mm256_sub_epi32(cube, onei))), _mm256_set1_ps(CELL));
                     let up = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_add_epi32(c[k], cube)), _mm256_set1_ps(CELL));
                     let side = _mm256_blendv_ps(lo, up, ahead[k]);
-                    let tk = _mm256_div_ps(_mm256_sub_ps(side, uc[k]), _mm256_blendv_ps(one, per[k], moving[k]));
+                    let tk = _mm256_mul_ps(_mm256_sub_ps(side, uc[k]), per_voxel[k]);
                     exit = _mm256_min_ps(exit, _mm256_blendv_ps(_mm256_set1_ps(3.0e38), tk, moving[k]));
                 }
                 _mm256_max_ps(exit, zero)
