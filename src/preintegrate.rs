@@ -109,17 +109,45 @@ pub fn table_side(lut_len: usize) -> usize {
 /// `side x side` entries, row `b` (back value `b / (side - 1)`) after row
 /// `b - 1`, column `f` the front value: RGB premultiplied colour and the
 /// optical depth (clamped to 1e30, which is opaque) of one segment of
-/// `len_over_ref` reference steps.
-pub fn table(lut: &[[f32; 4]], len_over_ref: f64, form: OpacityCorrection) -> Vec<[f32; 4]> {
+/// `len_over_ref` reference steps. Only entries whose front and back lie at
+/// most `reach` entries apart are integrated (segments whose values cannot
+/// change more read no others: `table_reach`); each of the others repeats
+/// the entry `reach` apart in its row.
+pub fn table(lut: &[[f32; 4]], len_over_ref: f64, form: OpacityCorrection, reach: usize) -> Vec<[f32; 4]> {
     let m = table_side(lut.len());
     let mut out = vec![[0.0f32; 4]; m * m];
     if lut.len() < 2 {
         // One entry: every ramp is one homogeneous stretch.
         out.fill(entry(segment(lut, 0.0, 0.0, len_over_ref, form, 1)));
-    } else {
-        table_windowed(lut, len_over_ref, form, m, &mut out);
+        return out;
+    }
+    let reach = reach.clamp(1, m - 1);
+    table_windowed(lut, len_over_ref, form, m, reach, &mut out);
+    if reach < m - 1 {
+        for b in 0..m {
+            for f in 0..m {
+                if f + reach < b {
+                    out[b * m + f] = out[b * m + b - reach];
+                } else if b + reach < f {
+                    out[b * m + f] = out[b * m + b + reach];
+                }
+            }
+        }
     }
     out
+}
+
+/// Table entries between a segment's front and back values, at most:
+/// values that change by at most `change` (in the transfer function's
+/// [0, 1]) over a segment, in a table of `side` entries, with one entry
+/// more for the sampler's neighbours and one for rounding.
+pub fn table_reach(change: f64, side: usize) -> usize {
+    let d = change * (side - 1) as f64 * (1.0 + 1e-3);
+    if d.is_finite() && d < side as f64 {
+        d.ceil() as usize + 2
+    } else {
+        side - 1
+    }
 }
 
 fn entry(r: [f64; 4]) -> [f32; 4] {
@@ -208,7 +236,8 @@ fn lerp_entry(lut: &[[f32; 4]], i: usize, f: f64) -> [f64; 4] {
 /// table longer than the table's side (MAX_TABLE) puts several of its
 /// intervals in each table interval; integrating each entry on its own
 /// took 0.55 s at 1024 entries and grew with their number.
-fn table_windowed(lut: &[[f32; 4]], len_over_ref: f64, form: OpacityCorrection, m: usize, out: &mut [[f32; 4]]) {
+fn table_windowed(lut: &[[f32; 4]], len_over_ref: f64, form: OpacityCorrection, m: usize, reach: usize,
+                  out: &mut [[f32; 4]]) {
     let n = lut.len();
     let spans: Vec<Span> = (0..m - 1).map(|k| Span::new(lut, form, n, m, k)).collect();
     let spans = &spans;
@@ -217,14 +246,14 @@ fn table_windowed(lut: &[[f32; 4]], len_over_ref: f64, form: OpacityCorrection, 
         let v = f as f64 / (m - 1) as f64;
         out[f * m + f] = entry(segment(lut, v, v, len_over_ref, form, 1));
     }
-    let threads = std::thread::available_parallelism().map(|t| t.get()).unwrap_or(1).min(m - 1).max(1);
+    let threads = std::thread::available_parallelism().map(|t| t.get()).unwrap_or(1).min(reach).max(1);
     let rows: Vec<Vec<(usize, [f32; 4])>> = std::thread::scope(|s| {
         let handles: Vec<_> = (0..threads)
             .map(|t| {
                 s.spawn(move || {
                     let mut mine = Vec::new();
                     // Every threads-th d, so that each thread gets long and short windows alike.
-                    for d in (1 + t..m).step_by(threads) {
+                    for d in (1 + t..=reach).step_by(threads) {
                         let len = len_over_ref / d as f64;
                         let (up, mut down): (Vec<Piece>, Vec<Piece>) =
                             spans.iter().map(|span| span.pieces(lut, form, n, m, len)).unzip();
@@ -469,7 +498,7 @@ mod tests {
     fn assert_table_near_fine(lut: &[[f32; 4]], at: &[(usize, usize)]) {
         for form in [OpacityCorrection::Exponential, OpacityCorrection::Power] {
             for len in [0.3, 4.0] {
-                let worst = worst_against_fine(lut, &table(lut, len, form), len, form, at);
+                let worst = worst_against_fine(lut, &table(lut, len, form, usize::MAX), len, form, at);
                 assert!(worst[0] < 2.5e-3 && worst[1] < 1e-2, "{form:?} len {len}: {worst:?}");
             }
         }
@@ -525,7 +554,7 @@ mod tests {
                 [1.0, 1.0, 1.0, if (v - 0.5).abs() < 0.02 { 1.0 } else { 0.0 }]
             })
             .collect();
-        let t = table(&lut, 3.0, OpacityCorrection::Exponential);
+        let t = table(&lut, 3.0, OpacityCorrection::Exponential, usize::MAX);
         let n = table_side(m);
         let e = t[(n - 1) * n]; // front 0, back 1
         let band: f64 = (0..100_000)
@@ -574,4 +603,26 @@ mod tests {
             }
         }
     }
+
+    #[test]
+    fn a_table_within_a_reach_holds_the_whole_tables_entries_there() {
+        let lut = rough_lut(7, 256, 0.9);
+        let full = table(&lut, 2.0, OpacityCorrection::Exponential, usize::MAX);
+        let m = table_side(lut.len());
+        for reach in [1, 3, 40] {
+            let part = table(&lut, 2.0, OpacityCorrection::Exponential, reach);
+            for b in 0..m {
+                for f in 0..m {
+                    // Outside the reach, the entry `reach` apart in the same row.
+                    let g = f.clamp(b.saturating_sub(reach), (b + reach).min(m - 1));
+                    assert_eq!(part[b * m + f], full[b * m + g], "reach {reach}: entry ({f}, {b})");
+                }
+            }
+        }
+        // Values that change by 0.01 over a segment reach 3 entries of 256 (2.55), and one each side more.
+        assert_eq!(table_reach(0.01, 256), 5);
+        assert_eq!(table_reach(2.0, 256), 255);
+        assert_eq!(table_reach(f64::NAN, 256), 255);
+    }
 }
+

@@ -504,6 +504,9 @@ pub struct PreintKey {
     pub lut_version: u64,
     pub len_over_ref: f64,
     pub form: OpacityCorrection,
+    /// Entries apart that a segment's front and back can lie
+    /// (`preintegrate::table_reach`): only those are integrated.
+    pub reach: usize,
 }
 
 impl Tables {
@@ -558,7 +561,7 @@ impl Tables {
             return Ok(Some(0));
         }
         let side = preintegrate::table_side(self.rows.len());
-        let table = preintegrate::table(&self.rows, key.len_over_ref, key.form);
+        let table = preintegrate::table(&self.rows, key.len_over_ref, key.form, key.reach);
         let texels = with_lut_row(table, side, &self.rows);
         // f16 tops out at 65504: deeper segments are opaque anyway.
         let (format, bytes) = float_table(ctx, &texels.texels, Some(6.0e4));

@@ -9,6 +9,7 @@ use crate::gpu::pipeline::{dispatch_groups, Layout, Variant};
 use crate::gpu::plan::{plan, PassPlan};
 use crate::gpu::readback::read_buffers;
 use crate::gpu::resources::{readback_buffer, PreintKey, RayState};
+use crate::preintegrate;
 use crate::integrate::max_extinction;
 use crate::model::Model;
 use crate::scene::{Camera, Light, Shading};
@@ -200,6 +201,28 @@ impl GpuRenderer {
 
     /// The shader variant and the passes this frame needs, with the ray
     /// state and pre-integration table they use.
+    /// Table entries apart that a pre-integrated segment's front and back
+    /// values can lie (`preintegrate::table_reach`). Trilinear values change
+    /// by at most the grid's slopes per voxel along each axis, so over a
+    /// segment of length h in direction d (unit) by at most h sum_k a_k |d_k|
+    /// <= h |a| (a_k: slope per world unit along axis k, in the transfer
+    /// function's [0, 1]); a filtering unit whose weights are rounded to
+    /// 1/256 may add up to sum_k a_k / 256 voxels' worth at each end. Bricked
+    /// volumes, whose bricks are read one by one, take the whole table.
+    fn preint_reach(&self, cfg: &RenderConfig) -> usize {
+        let side = preintegrate::table_side(self.tables.rows.len());
+        let Some(vol) = self.volume.as_ref().filter(|_| self.bricks.is_none()) else {
+            return side - 1;
+        };
+        let extent = vol.bounds.extent().to_array();
+        let per_voxel: [f64; 3] =
+            std::array::from_fn(|k| vol.grid.slopes[k] as f64 * self.value_map.scale.abs());
+        let per_unit: [f64; 3] = std::array::from_fn(|k| per_voxel[k] * vol.dims[k] as f64 / extent[k]);
+        let along = per_unit.iter().map(|a| a * a).sum::<f64>().sqrt() * cfg.step_size;
+        let rounding = 2.0 * per_voxel.iter().sum::<f64>() / 256.0;
+        preintegrate::table_reach(along + rounding, side)
+    }
+
     pub(super) fn prepare(&mut self, camera: &Camera, light: &Light, cfg: &RenderConfig) -> Result<(Variant, PassPlan), Error> {
         let vol = self.volume.as_ref().expect("checked by check_ready");
         let shading = Shading::choose(light, vol.normals.is_some() || vol.normals_in_volume);
@@ -234,6 +257,7 @@ impl GpuRenderer {
                 lut_version: self.tables.version,
                 len_over_ref: cfg.step_size / cfg.reference_step_size,
                 form: cfg.opacity_correction,
+                reach: self.preint_reach(cfg),
             };
             if let Some(bytes) = self.tables.ensure_preint(&self.ctx, key)? {
                 self.pending_upload += bytes;
