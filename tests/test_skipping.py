@@ -230,6 +230,9 @@ def test_preintegration_tables_kept_for_other_steps_follow_the_table():
     cmap = ColorTransferFunction.from_colormap("plasma")
     first = OpacityTransferFunction.peaks([0.5], opacity=0.8, eps=0.03)
     r = make_renderer(Volume(data), ctf=cmap, otf=first, light=Light.ambient_only(1.0))
+    # On the shader: the native march reads the table's texels, and its
+    # frames upload no texture.
+    r.native_march = False
     steps = [0.05, 0.03, 0.02, 0.07, 0.04]
     pre = {h: RenderConfig(step_size=h, max_steps=200, early_ray_termination=False, pre_integrated=True) for h in steps}
 
@@ -252,6 +255,7 @@ def test_preintegration_tables_kept_for_other_steps_follow_the_table():
     second = OpacityTransferFunction.peaks([0.3], opacity=0.8, eps=0.03)
     r.set_transfer_functions(cmap, second)
     fresh = make_renderer(Volume(data), ctf=cmap, otf=second, light=Light.ambient_only(1.0))
+    fresh.native_march = False
     for h in (0.04, 0.05):
         img, uploaded = frame(h)
         want = fresh.render(dtype=np.float32, premultiplied=True, config=pre[h])
@@ -264,3 +268,12 @@ def test_preintegration_tables_kept_for_other_steps_follow_the_table():
     r.set_transfer_functions(long_ctf, long_otf)
     uploads = [frame(h)[1] for h in (0.04, 0.05, 0.04)]
     assert 1 << 20 < uploads[0] < 5 << 20 and uploads[2] < 512, uploads
+    # The native march reads the texels: its frames build a new step's
+    # table but upload no texture, which the shader's first frame then does.
+    pre[0.045] = pre[0.04].replace(step_size=0.045)
+    r.native_march = True
+    native, uploaded = frame(0.045)
+    assert uploaded < 512 and r.last_frame_stats["engine"] == "native"
+    r.native_march = False
+    shader, uploaded = frame(0.045)
+    assert uploaded > 1 << 20 and np.abs(native - shader).max() < 0.25 / 255 and shader[..., 3].max() > 0.2

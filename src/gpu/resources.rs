@@ -481,15 +481,17 @@ pub struct Tables {
     pub rows: Vec<[f32; 4]>,
     /// Bumped by every upload, so derived tables know when to rebuild.
     pub version: u64,
-    /// The pre-integration table and what it was built for.
-    pub preint: Option<(wgpu::TextureView, PreintKey)>,
+    /// The pre-integration table and what it was built for; its texture
+    /// is uploaded when a frame on the device first needs it (the native
+    /// march reads only the texels).
+    pub preint: Option<(Option<wgpu::TextureView>, PreintKey)>,
     /// The same texture's texels, for the native march.
     pub preint_texels: crate::cpu::PreintTable,
     /// Tables of this transfer function for other segment lengths, latest
     /// first: a session that switches steps (a coarse step while the view
     /// moves, a fine one at rest; pilots of a step search) swaps them back
     /// in instead of rebuilding.
-    preint_spares: Vec<(wgpu::TextureView, PreintKey, crate::cpu::PreintTable)>,
+    preint_spares: Vec<(Option<wgpu::TextureView>, PreintKey, crate::cpu::PreintTable)>,
 }
 
 /// Pre-integration tables kept besides the current one, and the most
@@ -546,32 +548,42 @@ impl Tables {
     }
 
     /// Makes the pre-integration table for `key` current: the current one
-    /// if it was built for `key`, else a kept one, else a new one. Returns
-    /// None when the current one stays, else the bytes uploaded (0 for a
-    /// kept one).
-    pub fn ensure_preint(&mut self, ctx: &GpuContext, key: PreintKey) -> Result<Option<u64>, Error> {
+    /// if it was built for `key`, else a kept one, else a new one (its
+    /// texture not yet uploaded: `upload_preint`). Returns whether the table
+    /// changed.
+    pub fn ensure_preint(&mut self, key: PreintKey) -> bool {
         if self.preint.as_ref().is_some_and(|(_, k)| *k == key) {
-            return Ok(None);
+            return false;
         }
         if let Some(i) = self.preint_spares.iter().position(|(_, k, _)| *k == key) {
             let (view, key, texels) = self.preint_spares.remove(i);
             self.keep_current_preint();
             self.preint = Some((view, key));
             self.preint_texels = texels;
-            return Ok(Some(0));
+            return true;
         }
         let side = preintegrate::table_side(self.rows.len());
         let table = preintegrate::table(&self.rows, key.len_over_ref, key.form, key.reach);
         let texels = with_lut_row(table, side, &self.rows);
-        // f16 tops out at 65504: deeper segments are opaque anyway.
-        let (format, bytes) = float_table(ctx, &texels.texels, Some(6.0e4));
-        let height = (side + 3 * texels.rows) as u32;
-        let size = wgpu::Extent3d { width: side as u32, height, depth_or_array_layers: 1 };
-        let view = ctx.texture_with_data("uploading the pre-integration table", "preint", size, D2, format, 1, &bytes)?;
         self.keep_current_preint();
-        self.preint = Some((view, key));
+        self.preint = Some((None, key));
         self.preint_texels = texels;
-        Ok(Some(bytes.len() as u64))
+        true
+    }
+
+    /// Uploads the current pre-integration table's texture if it is not
+    /// yet (`preint`); returns the bytes that took.
+    pub fn upload_preint(&mut self, ctx: &GpuContext) -> Result<u64, Error> {
+        let Some((view @ None, _)) = self.preint.as_mut() else {
+            return Ok(0);
+        };
+        let t = &self.preint_texels;
+        // f16 tops out at 65504: deeper segments are opaque anyway.
+        let (format, bytes) = float_table(ctx, &t.texels, Some(6.0e4));
+        let height = (t.side + 3 * t.rows) as u32;
+        let size = wgpu::Extent3d { width: t.side as u32, height, depth_or_array_layers: 1 };
+        *view = Some(ctx.texture_with_data("uploading the pre-integration table", "preint", size, D2, format, 1, &bytes)?);
+        Ok(bytes.len() as u64)
     }
 
     /// Moves the current table to the front of the spares if it is for the

@@ -259,8 +259,7 @@ impl GpuRenderer {
                 form: cfg.opacity_correction,
                 reach: self.preint_reach(cfg),
             };
-            if let Some(bytes) = self.tables.ensure_preint(&self.ctx, key)? {
-                self.pending_upload += bytes;
+            if self.tables.ensure_preint(key) {
                 self.bind_group = None;
             }
         }
@@ -272,10 +271,11 @@ impl GpuRenderer {
         if self.bind_group.as_ref().is_some_and(|(_, f)| *f == hw_filter) {
             return Ok(());
         }
+        self.pending_upload += self.tables.upload_preint(&self.ctx)?;
+        let preint = self.tables.preint.as_ref().and_then(|(v, _)| v.as_ref()).unwrap_or(&self.fixed.no_preint);
         let vol = self.volume.as_ref().expect("checked by check_ready");
         let (lut, _) = self.tables.lut.as_ref().expect("checked by check_ready");
         let normals = vol.normals.as_ref().unwrap_or(&self.fixed.no_normals);
-        let preint = self.tables.preint.as_ref().map_or(&self.fixed.no_preint, |(v, _)| v);
         let occupancy = self
             .occupancy
             .view
