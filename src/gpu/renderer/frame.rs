@@ -199,8 +199,6 @@ impl GpuRenderer {
         Ok(params)
     }
 
-    /// The shader variant and the passes this frame needs, with the ray
-    /// state and pre-integration table they use.
     /// Table entries apart that a pre-integrated segment's front and back
     /// values can lie (`preintegrate::table_reach`). Trilinear values change
     /// by at most the grid's slopes per voxel along each axis, so over a
@@ -223,6 +221,8 @@ impl GpuRenderer {
         preintegrate::table_reach(along + rounding, side)
     }
 
+    /// The shader variant and the passes this frame needs, with the ray
+    /// state and pre-integration table they use.
     pub(super) fn prepare(&mut self, camera: &Camera, light: &Light, cfg: &RenderConfig) -> Result<(Variant, PassPlan), Error> {
         let vol = self.volume.as_ref().expect("checked by check_ready");
         let shading = Shading::choose(light, vol.normals.is_some() || vol.normals_in_volume);
