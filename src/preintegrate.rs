@@ -625,4 +625,3 @@ mod tests {
         assert_eq!(table_reach(f64::NAN, 256), 255);
     }
 }
-

@@ -362,9 +362,9 @@ def test_pre_integrated_frames_match_the_float64_integrator(lut_size):
     # A dense field, so that every ray's shorter last segment (midpoint rule) holds material: the
     # shader reads its transfer-function entry from the pre-integration texture's rows below the
     # table, wrapped into rows of the table's width (512 entries at most) for 1024 entries, whose
-    # table intervals then span two of its intervals. Measured: max 0.008 levels at both sizes, mean 0.0006 / 0.0002 (0.056 and
-    # 0.0016 at 1024 when each table entry was integrated on its own); reading the table's last row
-    # instead gives 228 / 242 levels. Lookup tables of 2 and 16 entries get a table of 256 a side:
+    # table intervals then span two of its intervals. Measured: max 0.008 levels at both sizes,
+    # mean 0.0006 / 0.0002 (0.056 and 0.0016 at 1024 when each table entry was integrated on its
+    # own); reading the table's last row instead gives 228 / 242 levels. Lookup tables of 2 and 16 entries get a table of 256 a side:
     # max 0.063 / 0.13, mean 0.009 / 0.008, where tables of their own size put frames tens of levels
     # off (a ramp's integral is far from bilinear across a coarse grid).
     z, y, x = np.meshgrid(*[np.linspace(0, 1, 40)] * 3, indexing="ij")

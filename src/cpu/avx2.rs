@@ -224,7 +224,9 @@ pub unsafe fn march<T: Texels>(
     let moving: [__m256; 3] = std::array::from_fn(|k| _mm256_cmp_ps::<_CMP_NEQ_OQ>(per[k], _mm256_setzero_ps()));
     let ahead: [__m256; 3] = std::array::from_fn(|k| _mm256_cmp_ps::<_CMP_GT_OQ>(per[k], _mm256_setzero_ps()));
     // Ray parameter per voxel along each axis (1 where the ray does not move along it).
-    let per_voxel: [__m256; 3] = std::array::from_fn(|k| _mm256_div_ps(_mm256_set1_ps(1.0), _mm256_blendv_ps(_mm256_set1_ps(1.0), per[k], moving[k])));
+    let per_voxel: [__m256; 3] = std::array::from_fn(|k| {
+        _mm256_div_ps(_mm256_set1_ps(1.0), _mm256_blendv_ps(_mm256_set1_ps(1.0), per[k], moving[k]))
+    });
     // A quarter voxel along the axis the ray crosses fastest (compositing.wgsl `whole_segments`).
     let nudge = _mm256_div_ps(
         _mm256_set1_ps(0.25),
@@ -453,7 +455,10 @@ pub unsafe fn march<T: Texels>(
                     let exit = exit_of(&uc, &c, radius);
                     far = _mm256_blendv_ps(far, _mm256_add_ps(_mm256_add_ps(far, nudge), exit), walking);
                 }
-                let kf = _mm256_floor_ps(_mm256_sub_ps(_mm256_div_ps(far, h), _mm256_add_ps(shift, _mm256_set1_ps(1e-3))));
+                let kf = _mm256_floor_ps(_mm256_sub_ps(
+                    _mm256_div_ps(far, h),
+                    _mm256_add_ps(shift, _mm256_set1_ps(1e-3)),
+                ));
                 // Segment i must lie inside.
                 let inside = _mm256_cmp_ps::<_CMP_GE_OQ>(kf, lowest);
                 leap = _mm256_and_ps(leap, inside);

@@ -582,7 +582,8 @@ impl Tables {
         let (format, bytes) = float_table(ctx, &t.texels, Some(6.0e4));
         let height = (t.side + 3 * t.rows) as u32;
         let size = wgpu::Extent3d { width: t.side as u32, height, depth_or_array_layers: 1 };
-        *view = Some(ctx.texture_with_data("uploading the pre-integration table", "preint", size, D2, format, 1, &bytes)?);
+        let uploaded = ctx.texture_with_data("uploading the pre-integration table", "preint", size, D2, format, 1, &bytes)?;
+        *view = Some(uploaded);
         Ok(bytes.len() as u64)
     }
 
