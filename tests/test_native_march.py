@@ -239,3 +239,23 @@ def test_refined_segments_in_the_native_march(lit):
     # Refined segments take 8 samples where unrefined ones take one.
     assert native[1]["samples"] > 1.02 * plain[1]["samples"]
     assert np.abs(native[0] - plain[0]).max() > 2 * LEVEL
+
+
+@pytest.mark.parametrize("precision, lit", [("fixed16", True), ("float32", False)])
+def test_native_march_matches_the_shader_where_it_prefetches(precision, lit):
+    # Over 16 MiB of texels (136^3 with 8-byte normals and values, 168^3
+    # float32 values) seen by 24x20 rays, which lie several voxels apart:
+    # the march prefetches each next sample's texels (src/cpu/avx2.rs
+    # `prefetches`), which must change nothing it reads.
+    n = 136 if lit else 168
+    x, y, z = np.meshgrid(*[np.linspace(-1, 1, n, dtype=np.float32)] * 3, indexing="ij", sparse=True)
+    data = (0.5 + 0.5 * np.sin(4 * x) * np.cos(3 * y) * np.sin(5 * z + 1)).astype(np.float32)
+    normals = compute_normal_volume(data) if lit else None
+    light = Light.directional([-0.6, -0.3, -0.8], ambient=0.25, diffuse=0.75) if lit else Light.ambient_only(0.9)
+    r = VolumeRenderer(24, 20, config=RenderConfig.balanced(), light=light)
+    r.load_volume(Volume(data, normals, *BOX), precision=precision)
+    r.set_transfer_functions(ColorTransferFunction.from_colormap("viridis"), OpacityTransferFunction.linear(0.3, 0.2))
+    r.set_camera(OUTSIDE)
+    for name in ("balanced", "pre_integrated", "long_steps"):
+        native, shader = both(r, RenderConfig.balanced().replace(**CONFIGS[name]))
+        assert_same(native, shader, f"{precision}, {name}")
