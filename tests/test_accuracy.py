@@ -179,6 +179,21 @@ def test_config_for_error_tries_pre_integration_only_where_the_tf_limits_the_ste
     assert len(rendered) == pred["pilot_renders"]
 
 
+def test_a_step_in_the_transfer_function_is_told_from_narrow_peaks():
+    # The segment search's reference is refined only where the opacity jumps
+    # between neighbouring entries of the pre-integration table (256 a side
+    # at least): a step at one entry of a 256-entry table does; narrow peaks
+    # and the same step in a 16-entry table (a ramp over 17 of the table's
+    # entries) do not.
+    def lut(otf, n=256):
+        return np.column_stack([np.ones((n, 3)), otf.to_lut(n)])
+
+    assert accuracy.tf_has_step(lut(OpacityTransferFunction.one_step(0.5, 0.0, 0.6)))
+    assert not accuracy.tf_has_step(lut(OpacityTransferFunction.peaks([0.25, 0.5, 0.75], opacity=0.6, eps=0.02)))
+    assert not accuracy.tf_has_step(lut(OpacityTransferFunction.one_step(0.5, 0.0, 0.6), 16))
+    assert not accuracy.tf_has_step(lut(OpacityTransferFunction.linear(0.0, 1.0)))
+
+
 @pytest.mark.parametrize("target", [1.0, 4.0])
 def test_config_for_error_searches_only_segments_where_the_tf_is_far_narrower_than_a_voxel(target):
     # A step transfer function on the small helix: Bergner's TF-limited step

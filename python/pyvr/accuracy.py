@@ -46,12 +46,20 @@ REFINED_COST = 1.7 * PREINTEGRATED_COST
 REFINED_START = 1.5
 # Where Bergner's TF-limited step is under this fraction of a voxel,
 # config_for_error searches only the segment kinds (pre-integrated, refined),
-# from steps of 1/SEGMENT_START of a voxel, against a refined reference at
-# half that step: on the accuracy benchmark the helix (a TF-limited step of
+# from steps of 1/SEGMENT_START of a voxel, against a reference at half that
+# step (refined where the transfer function has a step, STEP_JUMP): on the accuracy benchmark the helix (a TF-limited step of
 # 0.003 voxel) and the narrow peaks (0.09) are there, Shepp-Logan (0.21; the
 # midpoint kind wins it) is not.
 SEGMENTS_ONLY = 1 / 8
 SEGMENT_START = 16
+# A transfer function whose opacity changes by more than this between
+# neighbouring entries of the pre-integration table (its side: the lookup
+# table's length within 256-512) has a step there, which the table's
+# bilinear lookups blur at any segment length: the segment search's
+# reference is then refined (its refined segments sample the lookup table
+# itself), elsewhere pre-integrated, at half the cost a sample. The helix's
+# step changes by 0.6 at one entry, the narrow peaks by at most 0.12.
+STEP_JUMP = 0.25
 # A step commensurate with the voxels puts samples at the same places in
 # every voxel along an axis-aligned stretch, where their errors add up
 # instead of averaging out; the segment search's steps are offset from the
@@ -212,6 +220,17 @@ def scene_features(renderer) -> Dict[str, float]:
             "longest_chord": longest_chord(renderer)}
 
 
+def tf_has_step(lut: np.ndarray) -> bool:
+    """Whether the transfer function's opacity changes by more than
+    STEP_JUMP between neighbouring entries of its pre-integration table."""
+    alpha = np.asarray(lut, np.float64)[:, 3]
+    if len(alpha) < 2:
+        return False
+    side = int(np.clip(len(alpha), 256, 512))
+    at = np.interp(np.linspace(0.0, 1.0, side), np.linspace(0.0, 1.0, len(alpha)), alpha)
+    return bool(np.abs(np.diff(at)).max() > STEP_JUMP)
+
+
 def tf_limited_step(features: Dict[str, float]) -> float:
     """The step the transfer function alone asks for (Bergner et al. 2006):
     the signal along a ray is the TF composed with the data, whose bandwidth
@@ -281,9 +300,10 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[in
     and cost more than the choice they lose to. The pre-integrated and
     refined kinds are then searched as above from a step of 1/SEGMENT_START
     of a voxel (times OFF_GRID, so that samples do not fall at the same places
-    in every voxel), against a refined pre-integrated reference at half
-    that step; where neither passes there, the reference's step is halved
-    once, and then the full search runs.
+    in every voxel), against a pre-integrated reference at half that step,
+    refined where the transfer function has a step (:func:`tf_has_step`);
+    where neither passes there, the reference's step is halved once, and
+    then the full search runs.
 
     Above one level the fine pilot is coarser by the target's fourth root:
     its own error, falling as h to h^2, is then a smaller share of the
@@ -418,15 +438,17 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[in
         # that midpoint pilots would have to sample them finer still (the
         # helix's step threshold: 0.003 of a voxel), at many times a
         # segment kind's frame. The segment kinds are searched alone,
-        # against a refined pre-integrated reference: its refined segments
-        # sample the volume REFINE times as finely (where the midpoint
-        # reference would resolve the same threshold), its others integrate
-        # the transfer function exactly along their ramp.
+        # against a pre-integrated reference, whose segments integrate the
+        # transfer function exactly along their ramp; where it has a step,
+        # which the table blurs, a refined one, whose refined segments sample
+        # the volume REFINE times as finely (where the midpoint reference
+        # would resolve the same threshold).
         # Where neither passes at its start, the reference's step is halved
         # once; then the full search below decides.
         h_seg = feats["spacing"] / (2 * SEGMENT_START) * OFF_GRID * max(1.0, max_error_levels) ** 0.25
+        ref_refine = REFINE if tf_has_step(renderer.lut) else 0
         for attempt in range(2):
-            reference = (h_seg, True, REFINE)
+            reference = (h_seg, True, ref_refine)
             h, err, pre, k, h_pre, h_ref = segment_kinds(None, 0.0, False, 2 * h_seg)
             if h is not None:
                 break
@@ -448,7 +470,8 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[in
         out = cfg.replace(step_size=h, max_steps=int(np.ceil(longest / h)) + 2, pre_integrated=pre, refine=k,
                           jitter=False, early_ray_termination=threshold < 1.0, opacity_threshold=max(0.0, threshold))
     return out, {"step": h, "pilot_step_error": err, "pilot_fine_step": reference[0],
-                 "reference": "refined" if reference[2] else "midpoint", "threshold": threshold,
+                 "reference": "refined" if reference[2] else "pre-integrated" if reference[1] else "midpoint",
+                 "threshold": threshold,
                  "tf_limited_step": tf_step,
                  "pre_integrated": pre, "refine": k, "midpoint_step": h_mid, "pre_integrated_step": h_pre,
                  "refined_step": h_ref,
