@@ -47,9 +47,10 @@ REFINED_START = 1.5
 # Where Bergner's TF-limited step is under this fraction of a voxel,
 # config_for_error searches only the segment kinds (pre-integrated, refined),
 # from steps of 1/SEGMENT_START of a voxel, against a reference at half that
-# step (refined where the transfer function has a step, STEP_JUMP): on the accuracy benchmark the helix (a TF-limited step of
-# 0.003 voxel) and the narrow peaks (0.09) are there, Shepp-Logan (0.21; the
-# midpoint kind wins it) is not.
+# step (refined where the transfer function has a step, STEP_JUMP): on the
+# accuracy benchmark the helix (a TF-limited step of 0.003 voxel) and the
+# narrow peaks (0.09) are there, Shepp-Logan (0.21; the midpoint kind wins
+# it) is not.
 SEGMENTS_ONLY = 1 / 8
 SEGMENT_START = 16
 # A transfer function whose opacity changes by more than this between

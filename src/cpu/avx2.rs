@@ -17,6 +17,8 @@ pub trait Texels {
     const PER_TEXEL: usize;
     /// What one unit of the interpolated value channel stands for.
     const VALUE_UNIT: f32;
+    /// Bytes per gather unit (an offset of 1).
+    const UNIT_BYTES: usize;
     /// Offsets of one voxel step along each numpy axis.
     fn strides(&self, dims: [usize; 3]) -> [i32; 3] {
         numpy_strides(dims, Self::PER_TEXEL)
@@ -24,8 +26,6 @@ pub trait Texels {
     /// # Safety
     /// Needs AVX2 and FMA; every offset must address a texel.
     unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4];
-    /// Bytes per gather unit (an offset of 1).
-    const UNIT_BYTES: usize;
     /// The storage's first byte.
     fn base(&self) -> *const u8;
 }
@@ -87,12 +87,12 @@ fn numpy_strides([_, d1, d2]: [usize; 3], per_texel: usize) -> [i32; 3] {
 pub struct Rgba32Float<'a>(pub &'a [[f32; 4]]);
 
 impl Texels for Rgba32Float<'_> {
+    const PER_TEXEL: usize = 4;
+    const VALUE_UNIT: f32 = 1.0;
     const UNIT_BYTES: usize = 4;
     fn base(&self) -> *const u8 {
         self.0.as_ptr() as *const u8
     }
-    const PER_TEXEL: usize = 4;
-    const VALUE_UNIT: f32 = 1.0;
     #[inline]
     #[target_feature(enable = "avx2,fma")]
     unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4] {
@@ -109,12 +109,12 @@ impl Texels for Rgba32Float<'_> {
 pub struct Rgba16Snorm<'a>(pub &'a [[i16; 4]]);
 
 impl Texels for Rgba16Snorm<'_> {
+    const PER_TEXEL: usize = 1;
+    const VALUE_UNIT: f32 = 1.0 / crate::fixed16::CODE_MAX as f32;
     const UNIT_BYTES: usize = 8;
     fn base(&self) -> *const u8 {
         self.0.as_ptr() as *const u8
     }
-    const PER_TEXEL: usize = 1;
-    const VALUE_UNIT: f32 = 1.0 / crate::fixed16::CODE_MAX as f32;
     #[inline]
     #[target_feature(enable = "avx2,fma")]
     unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4] {
@@ -144,12 +144,12 @@ impl Texels for Rgba16Snorm<'_> {
 pub struct R32Float<'a>(pub &'a [f32]);
 
 impl Texels for R32Float<'_> {
+    const PER_TEXEL: usize = 1;
+    const VALUE_UNIT: f32 = 1.0;
     const UNIT_BYTES: usize = 4;
     fn base(&self) -> *const u8 {
         self.0.as_ptr() as *const u8
     }
-    const PER_TEXEL: usize = 1;
-    const VALUE_UNIT: f32 = 1.0;
     #[inline]
     #[target_feature(enable = "avx2,fma")]
     unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4] {
@@ -165,12 +165,12 @@ impl Texels for R32Float<'_> {
 pub struct R16Snorm<'a>(pub &'a [i16]);
 
 impl Texels for R16Snorm<'_> {
+    const PER_TEXEL: usize = 1;
+    const VALUE_UNIT: f32 = 1.0 / crate::fixed16::CODE_MAX as f32;
     const UNIT_BYTES: usize = 2;
     fn base(&self) -> *const u8 {
         self.0.as_ptr() as *const u8
     }
-    const PER_TEXEL: usize = 1;
-    const VALUE_UNIT: f32 = 1.0 / crate::fixed16::CODE_MAX as f32;
     #[inline]
     #[target_feature(enable = "avx2,fma")]
     unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4] {
@@ -539,7 +539,8 @@ pub unsafe fn march<T: Texels>(
                 let mut o = zi;
                 for k in 0..3 {
                     let b = _mm256_cvttps_epi32(_mm256_floor_ps(_mm256_fmadd_ps(per[k], h, u[k])));
-                    o = _mm256_add_epi32(o, _mm256_mullo_epi32(_mm256_min_epi32(_mm256_max_epi32(b, zi), hi[k]), stride[k]));
+                    let b = _mm256_min_epi32(_mm256_max_epi32(b, zi), hi[k]);
+                    o = _mm256_add_epi32(o, _mm256_mullo_epi32(b, stride[k]));
                 }
                 let next_plane = _mm256_add_epi32(o, stride[0]);
                 let rows: [[i32; 8]; 4] = std::mem::transmute([
