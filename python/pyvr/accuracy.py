@@ -306,9 +306,10 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[in
     where neither passes there, the reference's step is halved once, and
     then the full search runs.
 
-    Above one level the fine pilot is coarser by the target's fourth root:
-    its own error, falling as h to h^2, is then a smaller share of the
-    budget than at one level.
+    Above one level the fine pilot (and the segment search's reference) is
+    coarser by the target's square root: its own error, falling as h to
+    h^2, then grows at most as fast as the budget, and takes no larger
+    share of it than at one level.
 
     Early termination: rays stop at opacity 1 - 0.2 * target / 255, which
     bounds what it drops to 0.2 of the target. Jitter stays off: it turns
@@ -446,7 +447,7 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[in
         # would resolve the same threshold).
         # Where neither passes at its start, the reference's step is halved
         # once; then the full search below decides.
-        h_seg = feats["spacing"] / (2 * SEGMENT_START) * OFF_GRID * max(1.0, max_error_levels) ** 0.25
+        h_seg = feats["spacing"] / (2 * SEGMENT_START) * OFF_GRID * max(1.0, max_error_levels) ** 0.5
         ref_refine = REFINE if tf_has_step(renderer.lut) else 0
         for attempt in range(2):
             reference = (h_seg, True, ref_refine)
@@ -456,7 +457,7 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[in
             h_seg /= 2
     if h is None:
         h_fine = max(initial_step(feats, cfg.reference_step_size) / 4, feats["spacing"] / 16)
-        h_fine *= max(1.0, max_error_levels) ** 0.25
+        h_fine *= max(1.0, max_error_levels) ** 0.5
         for attempt in range(4):
             reference = (h_fine, False, 0)
             h, err = largest_step(h_fine, leap=4, final=attempt == 3)
