@@ -123,15 +123,14 @@ pub fn table(lut: &[[f32; 4]], len_over_ref: f64, form: OpacityCorrection, reach
     }
     let reach = reach.clamp(1, m - 1);
     table_windowed(lut, len_over_ref, form, m, reach, &mut out);
-    if reach < m - 1 {
-        for b in 0..m {
-            for f in 0..m {
-                if f + reach < b {
-                    out[b * m + f] = out[b * m + b - reach];
-                } else if b + reach < f {
-                    out[b * m + f] = out[b * m + b + reach];
-                }
-            }
+    for (b, row) in out.chunks_exact_mut(m).enumerate() {
+        if b > reach {
+            let e = row[b - reach];
+            row[..b - reach].fill(e);
+        }
+        if b + reach + 1 < m {
+            let e = row[b + reach];
+            row[b + reach + 1..].fill(e);
         }
     }
     out
