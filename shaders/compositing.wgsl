@@ -316,16 +316,14 @@ fn cube_leap(r: Ray, i: u32, si: u32, mid: f32, tc: vec3<f32>, empty: bool) -> u
 fn whole_segments(r: Ray, i: u32, sp: vec2<f32>) -> vec2<u32> {
     var dir = r.d;
     var near = sp.x;
+    var sign = 1.0;
     if (BACK_TO_FRONT) {
         dir = -r.d;
         near = sp.x + sp.y;
+        sign = -1.0;
     }
     let du = (dir * P.tex_scale.xyz).zyx * vec3<f32>(textureDimensions(volume));
     let nudge = 0.25 / max(abs(du.x), max(abs(du.y), abs(du.z)));
-    var sign = 1.0;
-    if (BACK_TO_FRONT) {
-        sign = -1.0;
-    }
     var t = near;
     var far = near;
     var uniform = false;
