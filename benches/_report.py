@@ -27,10 +27,16 @@ def cpu_model() -> str:
 
 
 def stamp(device: str = "") -> dict:
-    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
-                            cwd=os.path.dirname(os.path.abspath(__file__))).stdout.strip()
-    dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], capture_output=True, text=True,
-                           cwd=os.path.dirname(os.path.abspath(__file__))).stdout.strip()
+    here = os.path.dirname(os.path.abspath(__file__))
+    try:
+        commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
+                                cwd=here).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], capture_output=True,
+                               text=True, cwd=here).stdout.strip()
+    except OSError:  # no git where the tree was copied to (a lent GPU machine, say)
+        commit, dirty = "", ""
+    # A copy of the tree without its history names its commit in PYVR_COMMIT.
+    commit = commit or os.environ.get("PYVR_COMMIT", "unknown")
     return {
         "date": datetime.date.today().isoformat(),
         "machine": f"{platform.node()} ({os.cpu_count()} cores, {platform.machine()}, {cpu_model()})",
@@ -40,7 +46,10 @@ def stamp(device: str = "") -> dict:
 
 
 def write_table(name: str, command: str, columns: list, rows: list, device: str = "", note: str = "") -> str:
-    """Writes out/<name>.json: the table and how it was made."""
+    """Writes out/<name>.json: the table and how it was made. PYVR_TABLE_PREFIX
+    is put before the name, so that a run on another machine (a GPU's, say)
+    fills its own tables in the docs rather than this machine's."""
+    name = os.environ.get("PYVR_TABLE_PREFIX", "") + name
     os.makedirs(OUT, exist_ok=True)
     path = os.path.normpath(os.path.join(OUT, f"{name}.json"))
     table = {"name": name, "command": command, "columns": columns, "rows": rows, "note": note, **stamp(device)}
