@@ -38,6 +38,27 @@ fn preint_uv(vf: f32, vb: f32) -> vec2<f32> {
     return (clamp(vec2<f32>(vf, vb), vec2<f32>(0.0), vec2<f32>(1.0)) * (m - 1.0) + 0.5) / size;
 }
 
+// The table's bilinear lookup at uv, clamped at the texture's edges; with
+// EXACT_TABLES by hand with f32 weights (texture units' are 8-bit).
+fn preint_entry(uv: vec2<f32>) -> vec4<f32> {
+    if (!EXACT_TABLES) {
+        return textureSampleLevel(preint, linear_sampler, uv, 0.0);
+    }
+    let size = vec2<i32>(textureDimensions(preint));
+    let p = uv * vec2<f32>(size) - 0.5;
+    let f = floor(p);
+    let w = p - f;
+    let a = clamp(vec2<i32>(f), vec2<i32>(0), size - 1);
+    let b = clamp(vec2<i32>(f) + 1, vec2<i32>(0), size - 1);
+    let c00 = textureLoad(preint, a, 0);
+    let c10 = textureLoad(preint, vec2<i32>(b.x, a.y), 0);
+    let c01 = textureLoad(preint, vec2<i32>(a.x, b.y), 0);
+    let c11 = textureLoad(preint, b, 0);
+    let y0 = c00 + (c10 - c00) * w.x;
+    let y1 = c01 + (c11 - c01) * w.x;
+    return y0 + (y1 - y0) * w.y;
+}
+
 // The opacity the transfer function gains and loses over the values in
 // [a, b], from its entries ⌊a(m-1)⌋ to ⌈b(m-1)⌉: the rows below the table
 // hold the running sum of |opacity change| from entry to entry.
@@ -191,7 +212,7 @@ fn preintegrated_segment(r: Ray, si: u32, sp: vec2<f32>, s: ptr<function, Integr
     let known = !is_nan(vf) && !is_nan(vb);
     let uv = select(preint_uv(select(0.0, vf, known), select(0.0, vb, known)),
                     preint_lut_uv(select(0.0, v, !is_nan(v))), !full || sub);
-    let e = textureSampleLevel(preint, linear_sampler, uv, 0.0);
+    let e = preint_entry(uv);
     if (!full) {
         var m = midpoint_segment_from(texel, e, sp.y);
         m.add *= light;

@@ -24,8 +24,12 @@ override POINT_LIGHT: bool = false;
 override EARLY_TERMINATION: bool = true;
 override POWER_CORRECTION: bool = false;
 // true: the volume's format is filterable and the sampler interpolates;
-// false: trilinear by hand from textureLoad (R32Float without FLOAT32_FILTERABLE).
+// false: trilinear by hand from textureLoad (R32Float without FLOAT32_FILTERABLE,
+// or exact_filtering: texture units weigh texels in 8-bit fixed point).
 override HW_FILTER: bool = true;
+// The transfer function's and the pre-integration table's lookups
+// interpolated by hand with f32 weights (exact_filtering).
+override EXACT_TABLES: bool = false;
 // true: each volume texel is (value, normal x, y, z) (Rgba16Float), so a lit
 // sample fetches once; `normals` is then a placeholder.
 override NORMALS_IN_VOLUME: bool = false;

@@ -11,7 +11,7 @@ fn volume_texel(tc: vec3<f32>) -> vec4<f32> {
     if (HW_FILTER) {
         return textureSampleLevel(volume, volume_sampler, tc, 0.0);
     }
-    return vec4<f32>(trilinear(tc * vec3<f32>(textureDimensions(volume)) - 0.5), 0.0, 0.0, 0.0);
+    return trilinear(tc * vec3<f32>(textureDimensions(volume)) - 0.5);
 }
 
 // The sampled value as the transfer function (and the iso value) sees it.
@@ -29,21 +29,22 @@ fn raw_value_at(tc: vec3<f32>) -> f32 {
 }
 
 // Cell-centred trilinear interpolation with clamp-to-edge, done by hand so it
-// works for every stored format and keeps full float weights.
-fn trilinear(u: vec3<f32>) -> f32 {
+// works for every stored format and keeps full float weights. Whole texels:
+// with NORMALS_IN_VOLUME they hold the normal too (unused lanes are dead code).
+fn trilinear(u: vec3<f32>) -> vec4<f32> {
     let hi = vec3<i32>(textureDimensions(volume)) - 1;
     let f = floor(u);
     let w = u - f;
     let a = clamp(vec3<i32>(f), vec3<i32>(0), hi);
     let b = clamp(vec3<i32>(f) + 1, vec3<i32>(0), hi);
-    let c000 = textureLoad(volume, vec3<i32>(a.x, a.y, a.z), 0).r;
-    let c100 = textureLoad(volume, vec3<i32>(b.x, a.y, a.z), 0).r;
-    let c010 = textureLoad(volume, vec3<i32>(a.x, b.y, a.z), 0).r;
-    let c110 = textureLoad(volume, vec3<i32>(b.x, b.y, a.z), 0).r;
-    let c001 = textureLoad(volume, vec3<i32>(a.x, a.y, b.z), 0).r;
-    let c101 = textureLoad(volume, vec3<i32>(b.x, a.y, b.z), 0).r;
-    let c011 = textureLoad(volume, vec3<i32>(a.x, b.y, b.z), 0).r;
-    let c111 = textureLoad(volume, vec3<i32>(b.x, b.y, b.z), 0).r;
+    let c000 = textureLoad(volume, vec3<i32>(a.x, a.y, a.z), 0);
+    let c100 = textureLoad(volume, vec3<i32>(b.x, a.y, a.z), 0);
+    let c010 = textureLoad(volume, vec3<i32>(a.x, b.y, a.z), 0);
+    let c110 = textureLoad(volume, vec3<i32>(b.x, b.y, a.z), 0);
+    let c001 = textureLoad(volume, vec3<i32>(a.x, a.y, b.z), 0);
+    let c101 = textureLoad(volume, vec3<i32>(b.x, a.y, b.z), 0);
+    let c011 = textureLoad(volume, vec3<i32>(a.x, b.y, b.z), 0);
+    let c111 = textureLoad(volume, vec3<i32>(b.x, b.y, b.z), 0);
     let x00 = c000 + (c100 - c000) * w.x;
     let x10 = c010 + (c110 - c010) * w.x;
     let x01 = c001 + (c101 - c001) * w.x;
@@ -97,5 +98,11 @@ fn direction_and_length(v: vec3<f32>) -> vec4<f32> {
 fn eval_lut(v: f32) -> vec4<f32> {
     let m = f32(P.lut_size);
     let x = clamp(v, 0.0, 1.0) * (m - 1.0);
+    if (EXACT_TABLES) {
+        let i = min(u32(x), P.lut_size - 1u);
+        let a = textureLoad(lut, vec2<u32>(i, 0u), 0);
+        let b = textureLoad(lut, vec2<u32>(min(i + 1u, P.lut_size - 1u), 0u), 0);
+        return a + (b - a) * (x - f32(i));
+    }
     return textureSampleLevel(lut, linear_sampler, vec2<f32>((x + 0.5) / m, 0.5), 0.0);
 }

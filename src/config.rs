@@ -72,6 +72,12 @@ pub struct RenderConfig {
     /// Poisson process composited with opacity sigma / rate (ratio tracking)
     /// instead of one midpoint sample per segment.
     pub unbiased: bool,
+    /// Interpolate the volume and the tables in the shader with f32 weights
+    /// instead of by the texture units, whose weights GPUs keep in 8-bit
+    /// fixed point (1/256 of a texel): that rounding puts a floor under the
+    /// error of steep transfer functions at small steps. CPU engines always
+    /// interpolate in f32.
+    pub exact_filtering: bool,
     pub order: Order,
 }
 
@@ -153,6 +159,7 @@ impl RenderConfig {
             pre_integrated: false,
             refine: 0,
             unbiased: false,
+            exact_filtering: false,
             order: Order::FrontToBack,
         }
     }

@@ -29,6 +29,7 @@ class RenderConfig:
     pre_integrated: bool
     refine: int
     unbiased: bool
+    exact_filtering: bool
     order: str
     def __init__(
         self,
@@ -48,6 +49,7 @@ class RenderConfig:
         pre_integrated: bool = False,
         refine: int = 0,
         unbiased: bool = False,
+        exact_filtering: bool = False,
         order: str = "front_to_back",
     ) -> None: ...
     def replace(self, **changes: Any) -> "RenderConfig": ...

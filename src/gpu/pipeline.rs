@@ -68,6 +68,9 @@ pub struct Variant {
     /// Segments in a cube of uniform cells are composited as one (set by
     /// the frame, where enough cells are uniform).
     pub uniform_cells: bool,
+    /// The transfer function's and the pre-integration table's lookups
+    /// interpolate with f32 weights in the shader (`exact_filtering`).
+    pub exact_tables: bool,
 }
 
 /// Whether rays march from the far end: only where the order changes the
@@ -106,6 +109,7 @@ impl Variant {
             unbiased: cfg.unbiased && model.integrates() && model != Model::SingleScattering,
             cell_rates: false,
             uniform_cells: false,
+            exact_tables: cfg.exact_filtering,
         }
     }
 
@@ -118,7 +122,7 @@ impl Variant {
         self.model.integrates() && self.shading == Shading::AmbientOnly && !self.unbiased && self.refine == 0
     }
 
-    fn constants(&self) -> [(&'static str, f64); 16] {
+    fn constants(&self) -> [(&'static str, f64); 17] {
         [
             ("SHADING", self.shading.code() as f64),
             ("POINT_LIGHT", self.point_light as u32 as f64),
@@ -135,6 +139,7 @@ impl Variant {
             ("UNBIASED", self.unbiased as u32 as f64),
             ("CELL_RATES", self.cell_rates as u32 as f64),
             ("UNIFORM_CELLS", self.uniform_cells as u32 as f64),
+            ("EXACT_TABLES", self.exact_tables as u32 as f64),
             ("GROUP_TILE", GROUP_TILE as f64),
         ]
     }

@@ -11,7 +11,7 @@ use pyo3::types::PyType;
 use std::ffi::CString;
 
 /// Field names `replace()` accepts.
-const FIELDS: [&str; 16] = [
+const FIELDS: [&str; 17] = [
     "step_size",
     "max_steps",
     "early_ray_termination",
@@ -27,6 +27,7 @@ const FIELDS: [&str; 16] = [
     "pre_integrated",
     "refine",
     "unbiased",
+    "exact_filtering",
     "order",
 ];
 
@@ -124,6 +125,10 @@ render_config_methods! {
         /// Each frame an unbiased estimate of the exact integral (Poisson
         /// points, ratio tracking): ``render(accumulate=n)`` converges to it.
         unbiased / set_unbiased: bool;
+        /// Interpolate the volume and the tables with f32 weights in the
+        /// shader rather than the texture units' 8-bit ones (GPUs only;
+        /// ``config_for_error`` turns it on there).
+        exact_filtering / set_exact_filtering: bool;
     }
     named {
         /// "exponential" (pyvr: 1 - exp(-a*d/ref)) or "power" (VTK: 1 - (1-a)^(d/ref)).
@@ -136,7 +141,7 @@ render_config_methods! {
     }
 
     #[new]
-    #[pyo3(signature = (step_size=None, max_steps=None, early_ray_termination=None, opacity_threshold=None, reference_step_size=None, opacity_correction="exponential", *, model="emission_absorption", iso_value=None, anisotropy=None, shadow_step_size=None, jitter=None, jitter_seed=None, pre_integrated=None, refine=None, unbiased=None, order="front_to_back"))]
+    #[pyo3(signature = (step_size=None, max_steps=None, early_ray_termination=None, opacity_threshold=None, reference_step_size=None, opacity_correction="exponential", *, model="emission_absorption", iso_value=None, anisotropy=None, shadow_step_size=None, jitter=None, jitter_seed=None, pre_integrated=None, refine=None, unbiased=None, exact_filtering=None, order="front_to_back"))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -155,6 +160,7 @@ render_config_methods! {
         pre_integrated: Option<&Bound<'_, PyAny>>,
         refine: Option<&Bound<'_, PyAny>>,
         unbiased: Option<&Bound<'_, PyAny>>,
+        exact_filtering: Option<&Bound<'_, PyAny>>,
         order: &str,
     ) -> PyResult<Self> {
         let d = RenderConfig::default();
@@ -177,6 +183,7 @@ render_config_methods! {
             pre_integrated: arg("pre_integrated", pre_integrated, d.pre_integrated)?,
             refine: arg("refine", refine, d.refine)?,
             unbiased: arg("unbiased", unbiased, d.unbiased)?,
+            exact_filtering: arg("exact_filtering", exact_filtering, d.exact_filtering)?,
             order: Order::parse(order).map_err(to_py)?,
         };
         checked(py, &inner)?;
@@ -282,6 +289,7 @@ render_config_methods! {
         state.set_item("pre_integrated", c.pre_integrated)?;
         state.set_item("refine", c.refine)?;
         state.set_item("unbiased", c.unbiased)?;
+        state.set_item("exact_filtering", c.exact_filtering)?;
         state.set_item("order", c.order.name())?;
         Ok((
             slf.get_type().into_any().unbind(),

@@ -226,8 +226,7 @@ impl GpuRenderer {
     pub(super) fn prepare(&mut self, camera: &Camera, light: &Light, cfg: &RenderConfig) -> Result<(Variant, PassPlan), Error> {
         let vol = self.volume.as_ref().expect("checked by check_ready");
         let shading = Shading::choose(light, vol.normals.is_some() || vol.normals_in_volume);
-        // Texels holding normals are only read through the sampler.
-        let hw_filter = vol.filterable && (!self.shader_filtering || vol.normals_in_volume);
+        let hw_filter = vol.filterable && !(self.shader_filtering || cfg.exact_filtering);
         let layout = Layout { hw_filter, normals_in_volume: vol.normals_in_volume };
         let skip = self.skip_empty && self.occupancy.empty_fraction >= SKIP_MIN_EMPTY;
         let mut variant = Variant::new(shading, light.kind, cfg, layout, skip);
