@@ -48,10 +48,10 @@ def levels(a, b):
 @pytest.mark.parametrize("kind", ["helix step", "torus peaks with normals"])
 @pytest.mark.parametrize("pre", [False, True], ids=["midpoint", "pre-integrated"])
 def test_exact_filtering_matches_the_f64_integrator_and_the_sampler(kind, pre):
-    # Measured against the f64 integrator: 0.003 and 0.03 level midpoint;
-    # 0.12 and 0.46 pre-integrated, the same as the sampler's frames (the
-    # table's own resolution). Against the sampler's frame: under 0.0005
-    # level (lavapipe weighs in f32).
+    # Measured against the f64 integrator on lavapipe: 0.003 and 0.03 level
+    # midpoint; 0.12 and 0.46 pre-integrated, the same as the sampler's
+    # frames (the table's own resolution). Against the sampler's frame:
+    # under 0.0005 level (lavapipe weighs in f32).
     r = scene(kind)
     r.native_march = False  # the shader's path: the native march is always exact
     steps = int(np.ceil(accuracy.longest_chord(r) / 0.01)) + 2
@@ -64,7 +64,10 @@ def test_exact_filtering_matches_the_f64_integrator_and_the_sampler(kind, pre):
     ref = r.render_float64(config=cfg, premultiplied=True)
     assert ref[..., 3].max() > 0.3
     assert levels(frames[True], ref) < (0.6 if pre else 0.1)
-    assert levels(frames[True], frames[False]) < 0.01
+    if _core.device_limits()["cpu_device"]:
+        assert levels(frames[True], frames[False]) < 0.01
+    else:  # texture units weigh in 8-bit fixed point: exact is the closer
+        assert levels(frames[True], ref) <= levels(frames[False], ref) + 0.01
 
 
 def test_exact_filtering_is_a_config_field_that_survives_copies():
