@@ -76,7 +76,10 @@ struct Params {
     // The dispatch's first pixel (a brick's screen rectangle).
     tile_x: u32,
     tile_y: u32,
-    tile_pad: vec2<u32>,
+    // The value map's scale is value_prescale * value_scale, each normal in
+    // f32 where it can be (GPUs flush subnormals; src/gpu/params.rs split_scale).
+    value_prescale: f32,
+    tile_pad: u32,
 };
 
 @group(0) @binding(BINDING_PARAMS) var<uniform> P: Params;

@@ -16,7 +16,7 @@ fn volume_texel(tc: vec3<f32>) -> vec4<f32> {
 
 // The sampled value as the transfer function (and the iso value) sees it.
 fn tf_value(raw: f32) -> f32 {
-    return raw * P.value_scale + P.value_offset;
+    return (raw * P.value_prescale) * P.value_scale + P.value_offset;
 }
 
 fn value_at(tc: vec3<f32>) -> f32 {

@@ -13,6 +13,30 @@ os.environ.setdefault("PYVR_BACKEND", "vulkan")
 SHARED_DATA = os.path.join(os.path.dirname(__file__), "..", "..", "shared", "data")
 
 
+@pytest.fixture(autouse=True)
+def _exact_filtering_on_gpus(request, monkeypatch):
+    """Tests compare frames with the float64 integrator at tolerances finer
+    than GPUs' texture units interpolate (fixed-point weights, 8 fractional
+    bits: 15 levels on a 12-bit CT's steep window on an H200). Where the
+    adapter is a GPU their frames interpolate in the shader
+    (RenderConfig.exact_filtering), except in tests marked texture_units,
+    which compare the two (tests/test_filtering.py). On a CPU adapter both
+    interpolate in f32 and nothing changes."""
+    from pyvr import VolumeRenderer
+    from pyvr.renderer import device_limits
+
+    if device_limits()["cpu_device"] or request.node.get_closest_marker("texture_units"):
+        return
+    sampled = VolumeRenderer._render_float
+
+    def exact(self, size=None, config=None):
+        cfg = (self._config_snapshot if config is None else config).copy()
+        cfg.exact_filtering = True
+        return sampled(self, size, cfg)
+
+    monkeypatch.setattr(VolumeRenderer, "_render_float", exact)
+
+
 @pytest.fixture
 def rng():
     return np.random.default_rng(1234)

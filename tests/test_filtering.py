@@ -45,6 +45,7 @@ def levels(a, b):
     return float(np.abs(np.asarray(a, np.float64) - b).max() * LEVELS)
 
 
+@pytest.mark.texture_units
 @pytest.mark.parametrize("kind", ["helix step", "torus peaks with normals"])
 @pytest.mark.parametrize("pre", [False, True], ids=["midpoint", "pre-integrated"])
 def test_exact_filtering_matches_the_f64_integrator_and_the_sampler(kind, pre):

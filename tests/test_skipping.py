@@ -10,6 +10,7 @@ from pyvr import RenderConfig
 from pyvr.camera import Camera
 from pyvr.datasets import compute_normal_volume, create_sample_volume
 from pyvr.lighting import Light
+from pyvr.renderer import device_limits
 from pyvr.transferfunctions import ColorTransferFunction, OpacityTransferFunction
 from pyvr.volume import Volume
 
@@ -270,6 +271,8 @@ def test_preintegration_tables_kept_for_other_steps_follow_the_table():
     assert 1 << 20 < uploads[0] < 5 << 20 and uploads[2] < 512, uploads
     # The native march reads the texels: its frames build a new step's
     # table but upload no texture, which the shader's first frame then does.
+    if not device_limits()["native_march"]:
+        return
     pre[0.045] = pre[0.04].replace(step_size=0.045)
     r.native_march = True
     native, uploaded = frame(0.045)

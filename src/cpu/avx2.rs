@@ -263,6 +263,8 @@ pub unsafe fn march<T: Texels>(
     let first_len = _mm256_min_ps(_mm256_mul_ps(_mm256_add_ps(one, shift), h), chord);
     let hi: [__m256i; 3] = dims.map(|d| _mm256_set1_epi32(d as i32 - 1));
     let stride = tex.strides(dims).map(|s| _mm256_set1_epi32(s));
+    // `value_prescale` is left out: the caller joins a split scale into
+    // `value_scale` (a subnormal product would flush here).
     let value_scale = _mm256_set1_ps(p.value_scale * T::VALUE_UNIT);
     let value_offset = _mm256_set1_ps(p.value_offset);
     let m = f.lut.len();

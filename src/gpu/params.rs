@@ -106,7 +106,11 @@ uniform_block! {
         /// The dispatch's first pixel.
         pub tile_x: u32,
         pub tile_y: u32,
-        pub tile_pad: [u32; 2],
+        /// The value map's scale is `value_prescale * value_scale`: a power
+        /// of two apart where the scale alone would be subnormal or overflow
+        /// in f32 (GPUs flush subnormals to zero; `split_scale`).
+        pub value_prescale: f32,
+        pub tile_pad: u32,
     }
 }
 
@@ -184,7 +188,7 @@ impl Params {
             anisotropy: cfg.anisotropy as f32,
             shadow_step: (cfg.shadow_step() * s) as f32,
             preint_side: preintegrate::table_side(f.lut_size as usize) as f32,
-            value_scale: f.value_map.scale as f32,
+            value_scale: split_scale(f.value_map.scale).1,
             value_offset: f.value_map.offset as f32,
             track_rate: finite_f32(cfg.tracking_rate(f.max_extinction / cfg.reference_step_size) / s),
             preint_rows: preintegrate::wrapped_rows(f.lut_size as usize, preintegrate::table_side(f.lut_size as usize))
@@ -204,7 +208,8 @@ impl Params {
             resolve: 0,
             tile_x: 0,
             tile_y: 0,
-            tile_pad: [0; 2],
+            value_prescale: split_scale(f.value_map.scale).0,
+            tile_pad: 0,
         }
     }
 
@@ -258,10 +263,41 @@ impl Params {
     }
 }
 
+/// (prescale, scale) with prescale * scale = `scale`, each a normal f32
+/// where it can be: a value range 3e38 wide maps by 3.3e-39, which GPUs
+/// flush to zero (every value would map to the offset). The prescale is 1,
+/// 2^-64 or 2^64; values times 2^-64 that are themselves subnormal map to
+/// under 1e-19 of the range anyway.
+pub fn split_scale(scale: f64) -> (f32, f32) {
+    let a = scale.abs();
+    let prescale: f64 = if a != 0.0 && a < 2f64.powi(-100) {
+        2f64.powi(-64)
+    } else if a > 2f64.powi(100) {
+        2f64.powi(64)
+    } else {
+        1.0
+    };
+    (prescale as f32, (scale / prescale) as f32)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::gpu::shader;
+
+    #[test]
+    fn value_scales_split_into_normal_f32_factors() {
+        // A range 3e38 wide, one 1e-39 wide, an ordinary one, and zero.
+        for scale in [1.0 / 3e38, -1.0 / 3e38, 1e39, 2.5, 0.0] {
+            let (pre, s) = split_scale(scale);
+            for f in [pre, s] {
+                assert!(f == 0.0 || f.is_normal(), "{scale}: {f}");
+            }
+            let product = pre as f64 * s as f64;
+            assert!((product - scale).abs() <= scale.abs() * 1e-7, "{scale}: {product}");
+        }
+        assert_eq!(split_scale(2.5), (1.0, 2.5));
+    }
 
     #[test]
     fn occupied_box_is_in_voxels_and_texture_axis_order() {

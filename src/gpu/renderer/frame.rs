@@ -98,8 +98,14 @@ impl GpuRenderer {
     fn render_native(&mut self, variant: &Variant, params: &Params, out: &mut [f32], stop: &mut dyn FnMut() -> bool) -> Result<FrameStats, Error> {
         let cpu = self.volume.as_ref().and_then(|v| v.cpu.as_ref()).expect("checked by native_covers");
         let occ = &self.occupancy;
+        // The march's workers flush subnormal results to zero but read
+        // subnormal operands (crate::cpu): the value map's scale is joined
+        // here, on a thread that keeps it.
+        let mut params = *params;
+        params.value_scale = (params.value_prescale as f64 * params.value_scale as f64) as f32;
+        params.value_prescale = 1.0;
         let frame = crate::cpu::Frame {
-            params,
+            params: &params,
             volume: cpu,
             lut: &self.tables.rows,
             cells: (!occ.codes.is_empty()).then_some((&occ.codes[..], occ.dims)),
