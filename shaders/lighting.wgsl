@@ -23,7 +23,7 @@ fn light_intensity(n: vec3<f32>, p: vec3<f32>) -> f32 {
     if (!(m > 0.0) || l.w < 0.0) {
         return P.ambient;
     }
-    let u = n / m;
+    let u = over_largest(n, m);
     return P.ambient + P.diffuse * max(dot(u / length(u), l.xyz), 0.0);
 }
 

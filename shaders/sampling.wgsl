@@ -79,7 +79,15 @@ fn gradient(tc: vec3<f32>) -> vec3<f32> {
     if (!(m > 0.0)) {
         return vec3<f32>(0.0);
     }
-    return (vec3<f32>(gx, gy, gz) / m) * P.inv_two_spacing.xyz;
+    return over_largest(vec3<f32>(gx, gy, gz), m) * P.inv_two_spacing.xyz;
+}
+
+// v / m, where m > 0 is v's largest |component|. GPUs may divide through a
+// reciprocal, which flushes to 0 for m above 2^126 (gradients of values
+// near f32's range): such m are scaled by 2^-64 first.
+fn over_largest(v: vec3<f32>, m: f32) -> vec3<f32> {
+    let s = select(1.0, 5.421010862e-20, m > 1.0e30);
+    return (v * s) / (m * s);
 }
 
 // v's unit direction and its length (w), or w < 0 for a zero vector; scaled
@@ -89,7 +97,7 @@ fn direction_and_length(v: vec3<f32>) -> vec4<f32> {
     if (!(m > 0.0)) {
         return vec4<f32>(0.0, 0.0, 0.0, -1.0);
     }
-    let u = v / m;
+    let u = over_largest(v, m);
     let l = length(u);
     return vec4<f32>(u / l, m * l);
 }

@@ -145,6 +145,13 @@ fn finite_f32(v: f64) -> f32 {
     v.clamp(-(f32::MAX as f64), f32::MAX as f64) as f32
 }
 
+/// A positive length as an f32 no smaller than the least normal one: GPUs
+/// flush subnormals to 0, and a step of 0 would march nowhere (a 0.01 step
+/// in a box 6e37 across is 1.7e-40 of it). Such a step is lengthened.
+fn normal_f32(v: f64) -> f32 {
+    finite_f32(v.max(f32::MIN_POSITIVE as f64))
+}
+
 impl Params {
     /// The block of a single-pass frame (passes set `pass_*` themselves).
     pub fn new(f: &FrameInputs, basis: &RayBasis, light: &Light, cfg: &RenderConfig) -> Params {
@@ -168,7 +175,7 @@ impl Params {
             inv_two_spacing: v4(0.5 / spacing),
             light_pos: v4((light.position - b.min) * s),
             light_dir: v4(light_dir),
-            step_size: (cfg.step_size * s) as f32,
+            step_size: normal_f32(cfg.step_size * s),
             inv_ref: finite_f32(1.0 / (cfg.reference_step_size * s)),
             ambient: light.ambient as f32,
             diffuse: light.diffuse as f32,
@@ -186,7 +193,7 @@ impl Params {
             jitter_seed: cfg.jitter_seed,
             iso_value: cfg.iso_value as f32,
             anisotropy: cfg.anisotropy as f32,
-            shadow_step: (cfg.shadow_step() * s) as f32,
+            shadow_step: normal_f32(cfg.shadow_step() * s),
             preint_side: preintegrate::table_side(f.lut_size as usize) as f32,
             value_scale: split_scale(f.value_map.scale).1,
             value_offset: f.value_map.offset as f32,
