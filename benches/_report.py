@@ -35,8 +35,11 @@ def stamp(device: str = "") -> dict:
                                text=True, cwd=here).stdout.strip()
     except OSError:  # no git where the tree was copied to (a lent GPU machine, say)
         commit, dirty = "", ""
-    # A copy of the tree without its history names its commit in PYVR_COMMIT.
-    commit = commit or os.environ.get("PYVR_COMMIT", "unknown")
+    # A copy of the tree (on another machine, whose git state may be stale or
+    # missing) names the commit it was made from in PYVR_COMMIT.
+    if os.environ.get("PYVR_COMMIT"):
+        commit, dirty = os.environ["PYVR_COMMIT"], ""
+    commit = commit or "unknown"
     return {
         "date": datetime.date.today().isoformat(),
         "machine": f"{platform.node()} ({os.cpu_count()} cores, {platform.machine()}, {cpu_model()})",

@@ -5,7 +5,7 @@
 
 use super::config::PyRenderConfig;
 use crate::error::{try_collect, try_vec};
-use crate::quantize::to_u8;
+use crate::quantize::to_u8_parallel;
 use super::args::integer;
 use super::errors::{guarded, run_released, to_py, to_py_in};
 use crate::gpu::GpuRenderer;
@@ -458,7 +458,8 @@ pub fn quantize<'py>(py: Python<'py>, rgba: PyReadonlyArray3<'py, f32>, straight
     }
     let src = rgba.as_slice().map_err(|_| PyValueError::new_err("image must be C-contiguous"))?;
     let mut out = try_vec(src.len(), 0u8, "the 8-bit image").map_err(to_py)?;
-    to_u8(src, straight, &mut out);
+    // The GIL stays held: the array is borrowed, and Python may write it.
+    to_u8_parallel(src, straight, &mut out);
     PyArray1::from_vec(py, out).reshape([s[0], s[1], 4])
 }
 
