@@ -28,7 +28,6 @@ Run: .venv/bin/python benches/gpu_card.py [--frames N] [--sizes 512,2048] [--tex
 import argparse
 import os
 import sys
-import warnings
 
 import numpy as np
 
@@ -40,8 +39,8 @@ os.environ.setdefault("PYVR_BACKEND", "vulkan")  # keep wgpu off the EGL context
 
 from benchmark import PRESETS, benchmark_scene  # noqa: E402
 from _report import write_table  # noqa: E402
-from presets_vs_reference import timed  # noqa: E402
-from pyvr import RenderConfig, VolumeRenderer  # noqa: E402
+from presets_vs_reference import side_by_side  # noqa: E402
+from pyvr import VolumeRenderer  # noqa: E402
 from pyvr.lighting import Light  # noqa: E402
 from reference.moderngl_reference import ReferenceRenderer, _context  # noqa: E402
 
@@ -68,20 +67,11 @@ def main():
     for size in (int(s) for s in args.sizes.split(",")):
         ref = ReferenceRenderer(volume, ctf, otf, size, size)
         for name in args.presets.split(","):
-            cfg = getattr(RenderConfig, name)()
-            r = VolumeRenderer(size, size, config=cfg, light=light)
-            r.load_volume(volume)
-            r.set_camera(camera)
-            r.set_transfer_functions(ctf, otf)
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                ours, t_ours = timed(lambda: r.render(dtype=np.float32, premultiplied=True), args.frames)
-            samples = r.last_frame_stats["samples"]
-            theirs, t_ref = timed(lambda: ref.render(camera, light, cfg), args.frames)
-            d = np.abs(np.round(np.clip(ours, 0, 1) * 255) - np.round(np.clip(theirs, 0, 1) * 255))
+            t_ours, t_ref, d, stats, _ = side_by_side((volume, camera, ctf, otf), light, ref, name, size, args.frames)
+            samples = stats["samples"]
             rate = samples / (t_ours * 1e-3)
             use = rate * LOOKUPS_PER_SAMPLE / (args.texture_rate * 1e9) if args.texture_rate > 0 else float("nan")
-            rows.append((size, name, t_ours, t_ref, samples, rate, use, d.mean(), d.max(), r.last_frame_stats["engine"]))
+            rows.append((size, name, t_ours, t_ref, samples, rate, use, d.mean(), d.max(), stats["engine"]))
             print(f"  {size}² {name}: ours {t_ours:.2f} ms ({samples / 1e6:.1f} M samples, {rate / 1e9:.2f} G/s), "
                   f"reference {t_ref:.2f} ms", flush=True)
     print(f"{'size':>5s} {'preset':14s} {'ours ms':>8s} {'moderngl ms':>11s} {'speed-up':>8s} {'M samples':>9s} "

@@ -42,6 +42,24 @@ def timed(fn, frames):
     return out, float(np.median(times))
 
 
+def side_by_side(scene, light, ref, preset, size, frames):
+    """Our frame and the reference's at `preset` ((volume, camera, ctf, otf)
+    of the scene): the median ms of each, the difference of their images in
+    8-bit levels, and our last frame's statistics."""
+    volume, camera, ctf, otf = scene
+    cfg = getattr(RenderConfig, preset)()
+    r = VolumeRenderer(size, size, config=cfg, light=light)
+    r.load_volume(volume)
+    r.set_camera(camera)
+    r.set_transfer_functions(ctf, otf)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        ours, t_ours = timed(lambda: r.render(dtype=np.float32, premultiplied=True), frames)
+    theirs, t_ref = timed(lambda: ref.render(camera, light, cfg), frames)
+    d = np.abs(np.round(np.clip(ours, 0, 1) * 255) - np.round(np.clip(theirs, 0, 1) * 255))
+    return t_ours, t_ref, d, r.last_frame_stats, r.device
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--frames", type=int, default=3)
@@ -56,26 +74,17 @@ def main():
     print(f"reference: moderngl {_context().info['GL_RENDERER']}")
     lines = []
     for name in args.presets.split(","):
-        cfg = getattr(RenderConfig, name)()
-        r = VolumeRenderer(args.size, args.size, config=cfg, light=light)
-        r.load_volume(volume)
-        r.set_camera(camera)
-        r.set_transfer_functions(ctf, otf)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            ours, t_ours = timed(lambda: r.render(dtype=np.float32, premultiplied=True), args.frames)
-        theirs, t_ref = timed(lambda: ref.render(camera, light, cfg), args.frames)
-        d = np.abs(np.round(np.clip(ours, 0, 1) * 255) - np.round(np.clip(theirs, 0, 1) * 255))
+        t_ours, t_ref, d, _, device = side_by_side((volume, camera, ctf, otf), light, ref, name, args.size, args.frames)
         lines.append((name, t_ours, t_ref, d.mean(), np.percentile(d, 99.9), d.max()))
         print(f"  {name}: ours {t_ours:.0f} ms, reference {t_ref:.0f} ms", flush=True)
-    print(f"device: {r.device}")
+    print(f"device: {device}")
     print(f"{'preset':14s} {'ours ms':>9s} {'moderngl ms':>12s} {'speed-up':>9s} {'mean diff':>10s} {'p99.9':>6s} {'max':>5s}")
     for name, a, b, mean, p, mx in lines:
         print(f"{name:14s} {a:9.1f} {b:12.1f} {b / a:8.2f}x {mean:10.4f} {p:6.2f} {mx:5.0f}")
     write_table("presets", f"benches/presets_vs_reference.py --frames {args.frames}",
                 ["preset", "pyvr (wgpu) ms", "moderngl reference ms", "speed-up", "difference, 8-bit levels: mean / max"],
                 [[n, round(a), round(b), f"{b / a:.1f}x", f"{mean:.4f} / {mx:.0f}"] for n, a, b, mean, p, mx in lines],
-                device=r.device, note=f"{args.volume}^3 double_sphere with normals, {args.size}x{args.size}; median of "
+                device=device, note=f"{args.volume}^3 double_sphere with normals, {args.size}x{args.size}; median of "
                 f"{args.frames} frames after a warm-up, uploads excluded; reference: moderngl on "
                 f"{_context().info['GL_RENDERER']}.")
 
