@@ -300,7 +300,8 @@ pub(crate) struct Ray {
 impl Ray {
     pub(crate) fn new(frame: &Frame, col: u32, row: u32) -> Option<Ray> {
         let p = frame.params;
-        let ndc = [2.0 * (col as f32 + 0.5) / p.width as f32 - 1.0, 2.0 * (row as f32 + 0.5) / p.height as f32 - 1.0];
+        let (w, h) = (p.width as f32, p.height as f32);
+        let ndc = [(2.0 * col as f32 + 1.0 - w) / w, (2.0 * row as f32 + 1.0 - h) / h];
         let mut d = [0f32; 3];
         for a in 0..3 {
             d[a] = p.cam_fwd[a] + ndc[0] * p.cam_right[a] + ndc[1] * p.cam_up[a];

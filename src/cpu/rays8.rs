@@ -56,11 +56,10 @@ pub unsafe fn rays(frame: &Frame, col0: u32, row: u32) -> Rays {
     let cols = _mm256_add_epi32(_mm256_set1_epi32(col0 as i32), lane);
     let in_image = _mm256_cmpgt_epi32(_mm256_set1_epi32(p.width.min(i32::MAX as u32) as i32), cols);
     let mut hit = _mm256_castsi256_ps(in_image);
-    let ndc_x = _mm256_sub_ps(
-        _mm256_div_ps(_mm256_mul_ps(set(2.0), _mm256_add_ps(_mm256_cvtepi32_ps(cols), set(0.5))), set(p.width as f32)),
-        one,
-    );
-    let ndc_y = set(2.0 * (row as f32 + 0.5) / p.height as f32 - 1.0);
+    // (2x + 1 - W) / W, as the shader (main.wgsl): an exact numerator.
+    let w = set(p.width as f32);
+    let ndc_x = _mm256_div_ps(_mm256_sub_ps(_mm256_fmadd_ps(set(2.0), _mm256_cvtepi32_ps(cols), one), w), w);
+    let ndc_y = set((2.0 * row as f32 + 1.0 - p.height as f32) / p.height as f32);
     let mut d: [__m256; 3] = std::array::from_fn(|a| {
         _mm256_add_ps(
             _mm256_add_ps(set(p.cam_fwd[a]), _mm256_mul_ps(ndc_x, set(p.cam_right[a]))),
