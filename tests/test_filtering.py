@@ -13,10 +13,11 @@ off by half a texel or a wrong clamp at the table's edge would not.
 import numpy as np
 import pytest
 
-from pyvr import RenderConfig, VolumeRenderer, _core, accuracy
+from pyvr import RenderConfig, VolumeRenderer, accuracy
 from pyvr.camera import Camera
 from pyvr.datasets import compute_normal_volume, create_sample_volume
 from pyvr.lighting import Light
+from pyvr.renderer import device_limits
 from pyvr.transferfunctions import ColorTransferFunction, OpacityTransferFunction
 from pyvr.volume import Volume
 
@@ -65,7 +66,7 @@ def test_exact_filtering_matches_the_f64_integrator_and_the_sampler(kind, pre):
     ref = r.render_float64(config=cfg, premultiplied=True)
     assert ref[..., 3].max() > 0.3
     assert levels(frames[True], ref) < (0.6 if pre else 0.1)
-    if _core.device_limits()["cpu_device"]:
+    if device_limits()["cpu_device"]:
         assert levels(frames[True], frames[False]) < 0.01
     else:  # texture units weigh in 8-bit fixed point: exact is the closer
         assert levels(frames[True], ref) <= levels(frames[False], ref) + 0.01
@@ -85,4 +86,4 @@ def test_exact_filtering_is_a_config_field_that_survives_copies():
 def test_config_for_error_filters_exactly_on_gpus_only():
     r = scene("helix step")
     cfg, _ = accuracy.config_for_error(r, 4.0)
-    assert cfg.exact_filtering == (not _core.device_limits()["cpu_device"])
+    assert cfg.exact_filtering == (not device_limits()["cpu_device"])

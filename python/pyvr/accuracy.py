@@ -22,8 +22,8 @@ from typing import Dict, Optional, Tuple
 
 import numpy as np
 
-from . import _core
 from .config import RenderConfig
+from .renderer import device_limits
 
 LEVELS = 255.0
 # A pre-integrated frame's time over a midpoint frame's at the same step
@@ -341,7 +341,7 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[in
         raise ValueError(f"pilot must be an integer of at least 8 pixels, got {pilot!r}")
     started = time.perf_counter()
     cfg = base or renderer.config
-    if not _core.device_limits()["cpu_device"]:
+    if not device_limits()["cpu_device"]:
         # GPUs' texture units weigh texels in 8-bit fixed point; pilots that
         # all share that rounding cannot see the floor it puts under the
         # error (the helix's 1-level target gave 3.7 levels on an H200).
