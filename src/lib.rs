@@ -6,6 +6,7 @@
 
 pub mod bricks;
 pub mod config;
+pub mod cores;
 pub mod cpu;
 pub mod error;
 pub mod fixed16;

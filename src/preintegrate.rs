@@ -114,26 +114,38 @@ pub fn table_side(lut_len: usize) -> usize {
 /// change more read no others: `table_reach`); each of the others repeats
 /// the entry `reach` apart in its row.
 pub fn table(lut: &[[f32; 4]], len_over_ref: f64, form: OpacityCorrection, reach: usize) -> Vec<[f32; 4]> {
+    let mut out = Vec::new();
+    append_table(lut, len_over_ref, form, reach, &mut out);
+    out
+}
+
+/// `table`, appended to `out` (whose capacity the caller may have sized
+/// for what follows the table): each entry is written once, row by row,
+/// from the band of entries integrated (a zeroed table filled in place
+/// spent more time writing 1 MiB twice than integrating a narrow band).
+pub fn append_table(lut: &[[f32; 4]], len_over_ref: f64, form: OpacityCorrection, reach: usize,
+                    out: &mut Vec<[f32; 4]>) {
     let m = table_side(lut.len());
-    let mut out = vec![[0.0f32; 4]; m * m];
+    out.reserve(m * m);
     if lut.len() < 2 {
         // One entry: every ramp is one homogeneous stretch.
-        out.fill(entry(segment(lut, 0.0, 0.0, len_over_ref, form, 1)));
-        return out;
+        let e = entry(segment(lut, 0.0, 0.0, len_over_ref, form, 1));
+        out.extend(std::iter::repeat_n(e, m * m));
+        return;
     }
     let reach = reach.clamp(1, m - 1);
-    table_windowed(lut, len_over_ref, form, m, reach, &mut out);
-    for (b, row) in out.chunks_exact_mut(m).enumerate() {
-        if b > reach {
-            let e = row[b - reach];
-            row[..b - reach].fill(e);
-        }
-        if b + reach + 1 < m {
-            let e = row[b + reach];
-            row[b + reach + 1..].fill(e);
-        }
+    let band = table_windowed(lut, len_over_ref, form, m, reach);
+    let width = 2 * reach + 1;
+    for b in 0..m {
+        // Row b holds fronts b - reach ..= b + reach at band[b * width ..];
+        // those outside the table are not integrated (and never read).
+        let row = &band[b * width..(b + 1) * width];
+        let (lo, hi) = (b.saturating_sub(reach), (b + reach).min(m - 1));
+        let (first, last) = (lo + reach - b, hi + reach - b);
+        out.resize(out.len() + lo, row[first]);
+        out.extend_from_slice(&row[first..=last]);
+        out.resize(out.len() + (m - 1 - hi), row[last]);
     }
-    out
 }
 
 /// Table entries between a segment's front and back values, at most:
@@ -235,47 +247,66 @@ fn lerp_entry(lut: &[[f32; 4]], i: usize, f: f64) -> [f64; 4] {
 /// table longer than the table's side (MAX_TABLE) puts several of its
 /// intervals in each table interval; integrating each entry on its own
 /// took 0.55 s at 1024 entries and grew with their number.
-fn table_windowed(lut: &[[f32; 4]], len_over_ref: f64, form: OpacityCorrection, m: usize, reach: usize,
-                  out: &mut [[f32; 4]]) {
+fn table_windowed(lut: &[[f32; 4]], len_over_ref: f64, form: OpacityCorrection, m: usize, reach: usize)
+    -> Vec<[f32; 4]> {
     let n = lut.len();
+    let width = 2 * reach + 1;
+    // Entry (front f, back b) at band[b * width + f + reach - b].
+    let mut band = vec![[0.0f32; 4]; m * width];
     let spans: Vec<Span> = (0..m - 1).map(|k| Span::new(lut, form, n, m, k)).collect();
     let spans = &spans;
     // The diagonal: a constant value, one homogeneous piece of full length.
     for f in 0..m {
         let v = f as f64 / (m - 1) as f64;
-        out[f * m + f] = entry(segment(lut, v, v, len_over_ref, form, 1));
+        band[f * width + reach] = entry(segment(lut, v, v, len_over_ref, form, 1));
     }
-    let threads = std::thread::available_parallelism().map(|t| t.get()).unwrap_or(1).min(reach).max(1);
-    let rows: Vec<Vec<(usize, [f32; 4])>> = std::thread::scope(|s| {
-        let handles: Vec<_> = (0..threads)
-            .map(|t| {
-                s.spawn(move || {
-                    let mut mine = Vec::new();
-                    // Every threads-th d, so that each thread gets long and short windows alike.
-                    for d in (1 + t..=reach).step_by(threads) {
-                        let len = len_over_ref / d as f64;
-                        let (up, mut down): (Vec<Piece>, Vec<Piece>) =
-                            spans.iter().map(|span| span.pieces(lut, form, n, m, len)).unzip();
-                        down.reverse();
-                        for (s0, w) in windows(&up, d).into_iter().enumerate() {
-                            mine.push(((s0 + d) * m + s0, entry([w.c[0], w.c[1], w.c[2], w.x])));
-                        }
-                        // down[j] is interval m - 2 - j: window j runs from entry m - 1 - j down to m - 1 - j - d.
-                        for (j, w) in windows(&down, d).into_iter().enumerate() {
-                            let f = m - 1 - j;
-                            mine.push(((f - d) * m + f, entry([w.c[0], w.c[1], w.c[2], w.x])));
-                        }
-                    }
-                    mine
+    // Windows of every length d up to the reach, both ways.
+    let windows_of = |d: usize, mine: &mut Vec<(usize, [f32; 4])>| {
+        let len = len_over_ref / d as f64;
+        let (up, mut down): (Vec<Piece>, Vec<Piece>) =
+            spans.iter().map(|span| span.pieces(lut, form, n, m, len)).unzip();
+        down.reverse();
+        for (s0, w) in windows(&up, d).into_iter().enumerate() {
+            // Front s0, back s0 + d.
+            mine.push(((s0 + d) * width + reach - d, entry([w.c[0], w.c[1], w.c[2], w.x])));
+        }
+        // down[j] is interval m - 2 - j: window j runs from entry m - 1 - j down to m - 1 - j - d.
+        for (j, w) in windows(&down, d).into_iter().enumerate() {
+            let f = m - 1 - j;
+            mine.push(((f - d) * width + reach + d, entry([w.c[0], w.c[1], w.c[2], w.x])));
+        }
+    };
+    // A thread each only where there is work enough (split from four
+    // lengths a thread, the narrow peaks' tables at step 0.001 took 0.13 ms
+    // longer to build on 2 cores, of 0.35 ms).
+    let threads = crate::cores::cores().min(reach / THREAD_LENGTHS).max(1);
+    let rows: Vec<Vec<(usize, [f32; 4])>> = if threads == 1 {
+        let mut mine = Vec::new();
+        (1..=reach).for_each(|d| windows_of(d, &mut mine));
+        vec![mine]
+    } else {
+        std::thread::scope(|s| {
+            let handles: Vec<_> = (0..threads)
+                .map(|t| {
+                    s.spawn(move || {
+                        let mut mine = Vec::new();
+                        // Every threads-th d, so that each thread gets long and short windows alike.
+                        (1 + t..=reach).step_by(threads).for_each(|d| windows_of(d, &mut mine));
+                        mine
+                    })
                 })
-            })
-            .collect();
-        handles.into_iter().map(|h| h.join().expect("pre-integration thread")).collect()
-    });
+                .collect();
+            handles.into_iter().map(|h| h.join().expect("pre-integration thread")).collect()
+        })
+    };
     for (idx, e) in rows.into_iter().flatten() {
-        out[idx] = e;
+        band[idx] = e;
     }
+    band
 }
+
+/// Window lengths per thread below which `table_windowed` stays on one.
+const THREAD_LENGTHS: usize = 16;
 
 /// One table interval, for composing it at any length: its thin series
 /// both ways (`Thin`), and the largest of its stretches' extinction times

@@ -22,7 +22,7 @@ pub fn to_u8(rgba: &[f32], straight: bool, out: &mut [u8]) {
 pub fn to_u8_parallel(rgba: &[f32], straight: bool, out: &mut [u8]) {
     const MIN_PIXELS: usize = 1 << 16;
     let pixels = rgba.len() / 4;
-    let threads = std::thread::available_parallelism().map_or(1, |t| t.get()).min(pixels / MIN_PIXELS).max(1);
+    let threads = crate::cores::cores().min(pixels / MIN_PIXELS).max(1);
     if threads == 1 {
         return to_u8(rgba, straight, out);
     }

@@ -191,7 +191,7 @@ pub fn render(frame: &Frame, out: &mut [[f32; 4]], stop: &mut dyn FnMut() -> boo
             }
         }
     };
-    let threads = std::thread::available_parallelism().map_or(1, |t| t.get()).min(tiles.max(1));
+    let threads = crate::cores::cores().min(tiles.max(1));
     let caller = std::thread::current();
     // Counted before each worker wakes the caller, so that a wake-up is
     // never missed (a thread's own finished flag is set only after it exits).

@@ -452,23 +452,22 @@ fn float_table(ctx: &GpuContext, rows: &[[f32; 4]], cap: Option<f32>) -> (wgpu::
 /// frames sample it between the two, where the sampler's filtering mixes
 /// the row with nothing but itself. Rows short of the width repeat their
 /// last entry.
-fn with_lut_row(table: Vec<[f32; 4]>, side: usize, lut: &[[f32; 4]]) -> crate::cpu::PreintTable {
+fn with_lut_row(key: &PreintKey, lut: &[[f32; 4]]) -> crate::cpu::PreintTable {
+    let side = preintegrate::table_side(lut.len());
     let rows = preintegrate::wrapped_rows(lut.len(), side);
-    let wrapped = |entries: &[[f32; 4]], twice: bool| {
+    let mut texels = Vec::with_capacity(side * (side + 3 * rows));
+    preintegrate::append_table(lut, key.len_over_ref, key.form, key.reach, &mut texels);
+    let wrapped = |texels: &mut Vec<[f32; 4]>, entries: &[[f32; 4]], copies: usize| {
         let last = entries.last().copied().unwrap_or([0.0; 4]);
-        (0..rows)
-            .flat_map(|r| {
-                let entry = |c: usize| entries.get(r * (side - 1) + c).copied().unwrap_or(last);
-                let row: Vec<[f32; 4]> = (0..side).map(entry).collect();
-                let copies = if twice { 2 } else { 1 };
-                std::iter::repeat_n(row, copies).flatten()
-            })
-            .collect::<Vec<_>>()
+        for r in 0..rows {
+            for _ in 0..copies {
+                texels.extend((0..side).map(|c| entries.get(r * (side - 1) + c).copied().unwrap_or(last)));
+            }
+        }
     };
-    let mut texels = table;
     let sums: Vec<[f32; 4]> = preintegrate::opacity_change_sums(lut).into_iter().map(|c| [c; 4]).collect();
-    texels.extend(wrapped(&sums, false));
-    texels.extend(wrapped(lut, true));
+    wrapped(&mut texels, &sums, 1);
+    wrapped(&mut texels, lut, 2);
     crate::cpu::PreintTable { texels, side, rows }
 }
 
@@ -562,9 +561,7 @@ impl Tables {
             self.preint_texels = texels;
             return true;
         }
-        let side = preintegrate::table_side(self.rows.len());
-        let table = preintegrate::table(&self.rows, key.len_over_ref, key.form, key.reach);
-        let texels = with_lut_row(table, side, &self.rows);
+        let texels = with_lut_row(&key, &self.rows);
         self.keep_current_preint();
         self.preint = Some((None, key));
         self.preint_texels = texels;

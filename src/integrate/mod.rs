@@ -245,7 +245,7 @@ pub fn render_image_interruptible(frame: &Frame, stop: &mut dyn FnMut(usize) -> 
     drop(probe);
     // Workers fill rows as they take them: nothing image-sized is touched
     // before the work starts, so a Ctrl-C is answered at once.
-    let threads = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1).min(h.max(1));
+    let threads = crate::cores::cores().min(h.max(1));
     let cfg = frame.config;
     let next_row = AtomicUsize::new(0);
     let cancelled = AtomicBool::new(false);
