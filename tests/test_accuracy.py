@@ -125,9 +125,10 @@ def test_config_for_error_meets_its_target_from_a_small_pilot(name):
     cfg, pred = accuracy.config_for_error(r, 2.0)
     assert pred["pilot_size"] == (64, 64)
     # (Where the TF limits the step, the pre-integrated and refined searches
-    # add their pilots, and the refined one 5 sample counts: 23 on the
-    # narrow peaks.)
-    assert pred["pilot_renders"] <= 24, pred
+    # add their pilots, and the refined one its sample counts: 13 on the
+    # narrow peaks on this machine, one fewer than before the octave above
+    # the last passing step was searched from its largest predicted step.)
+    assert pred["pilot_renders"] <= 14, pred
     assert cfg.jitter is False
     r.set_config(cfg)
     got = accuracy.error_metrics(r.render(dtype=np.float32, premultiplied=True), conv)
