@@ -135,17 +135,28 @@ pub fn append_table(lut: &[[f32; 4]], len_over_ref: f64, form: OpacityCorrection
     }
     let reach = reach.clamp(1, m - 1);
     let band = table_windowed(lut, len_over_ref, form, m, reach);
-    let width = 2 * reach + 1;
+    let width = band_width(m, reach);
     for b in 0..m {
-        // Row b holds fronts b - reach ..= b + reach at band[b * width ..];
-        // those outside the table are not integrated (and never read).
+        // Row b's fronts within the reach, the rest repeating the nearest.
         let row = &band[b * width..(b + 1) * width];
         let (lo, hi) = (b.saturating_sub(reach), (b + reach).min(m - 1));
-        let (first, last) = (lo + reach - b, hi + reach - b);
+        let (first, last) = (lo - band_start(m, reach, b), hi - band_start(m, reach, b));
         out.resize(out.len() + lo, row[first]);
         out.extend_from_slice(&row[first..=last]);
         out.resize(out.len() + (m - 1 - hi), row[last]);
     }
+}
+
+/// Entries a row of the band holds: every front within `reach` of the
+/// row's back value, as many as the table's side at most.
+fn band_width(m: usize, reach: usize) -> usize {
+    (2 * reach + 1).min(m)
+}
+
+/// The first front value row `b` of the band holds: `reach` below `b`,
+/// kept inside the table.
+fn band_start(m: usize, reach: usize, b: usize) -> usize {
+    b.saturating_sub(reach).min(m - band_width(m, reach))
 }
 
 /// Table entries between a segment's front and back values, at most:
@@ -250,15 +261,16 @@ fn lerp_entry(lut: &[[f32; 4]], i: usize, f: f64) -> [f64; 4] {
 fn table_windowed(lut: &[[f32; 4]], len_over_ref: f64, form: OpacityCorrection, m: usize, reach: usize)
     -> Vec<[f32; 4]> {
     let n = lut.len();
-    let width = 2 * reach + 1;
-    // Entry (front f, back b) at band[b * width + f + reach - b].
+    let width = band_width(m, reach);
+    // Entry (front f, back b) at band[b * width + f - band_start(b)].
+    let at = |f: usize, b: usize| b * width + f - band_start(m, reach, b);
     let mut band = vec![[0.0f32; 4]; m * width];
     let spans: Vec<Span> = (0..m - 1).map(|k| Span::new(lut, form, n, m, k)).collect();
     let spans = &spans;
     // The diagonal: a constant value, one homogeneous piece of full length.
     for f in 0..m {
         let v = f as f64 / (m - 1) as f64;
-        band[f * width + reach] = entry(segment(lut, v, v, len_over_ref, form, 1));
+        band[at(f, f)] = entry(segment(lut, v, v, len_over_ref, form, 1));
     }
     // Windows of every length d up to the reach, both ways.
     let windows_of = |d: usize, mine: &mut Vec<(usize, [f32; 4])>| {
@@ -267,13 +279,12 @@ fn table_windowed(lut: &[[f32; 4]], len_over_ref: f64, form: OpacityCorrection, 
             spans.iter().map(|span| span.pieces(lut, form, n, m, len)).unzip();
         down.reverse();
         for (s0, w) in windows(&up, d).into_iter().enumerate() {
-            // Front s0, back s0 + d.
-            mine.push(((s0 + d) * width + reach - d, entry([w.c[0], w.c[1], w.c[2], w.x])));
+            mine.push((at(s0, s0 + d), entry([w.c[0], w.c[1], w.c[2], w.x])));
         }
         // down[j] is interval m - 2 - j: window j runs from entry m - 1 - j down to m - 1 - j - d.
         for (j, w) in windows(&down, d).into_iter().enumerate() {
             let f = m - 1 - j;
-            mine.push(((f - d) * width + reach + d, entry([w.c[0], w.c[1], w.c[2], w.x])));
+            mine.push((at(f, f - d), entry([w.c[0], w.c[1], w.c[2], w.x])));
         }
     };
     // A thread each only where there is work enough (split from four
@@ -639,7 +650,7 @@ mod tests {
         let lut = rough_lut(7, 256, 0.9);
         let full = table(&lut, 2.0, OpacityCorrection::Exponential, usize::MAX);
         let m = table_side(lut.len());
-        for reach in [1, 3, 40] {
+        for reach in [1, 3, 40, 200] {
             let part = table(&lut, 2.0, OpacityCorrection::Exponential, reach);
             for b in 0..m {
                 for f in 0..m {
