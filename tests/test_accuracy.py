@@ -138,6 +138,57 @@ def test_config_for_error_meets_its_target_from_a_small_pilot(name):
     assert r._data_features is None
 
 
+class PowerLawPilots:
+    """A stand-in renderer whose pilots lie c h^p levels from the exact image
+    at one pixel (a constant transfer function, so only the midpoint kind
+    is searched): config_for_error's search then has one right answer."""
+
+    def __init__(self, c, p):
+        self.c, self.p = c, p
+        self.width = self.height = 128
+        self.config = RenderConfig.balanced()
+        self.lut = np.full((256, 4), 0.5, np.float32)
+        self.bounds = (np.full(3, -1.0), np.full(3, 1.0))
+        self._data_features = {"spacing": 2 / 64, "gradient": 1.0}
+        self.steps = []
+        self.last_frame_stats = {"samples": 0}
+
+    def render(self, dtype, premultiplied, size, config):
+        self.steps.append(config.step_size)
+        img = np.zeros((size[1], size[0], 4), np.float32)
+        img[0, 0, 3] = self.c * config.step_size**self.p / 255
+        self.last_frame_stats = {"samples": int(1 / config.step_size)}
+        return img
+
+
+@pytest.mark.parametrize("p", [2.0, 4.0])
+@pytest.mark.parametrize("frac", [0.1, 0.4, 0.6, 0.9])
+def test_config_for_error_finds_the_largest_step_within_the_budget_in_few_pilots(frac, p):
+    # Errors c (h^p - h_fine^p) against the fine pilot reach the budget (0.4
+    # level: a 64-pixel pilot for a 128-pixel frame) at h_fine 2^(3 + frac):
+    # steps doubling from h_fine pass up to 8 h_fine and fail at 16, and the
+    # octave above 8 h_fine holds the answer at 2^(1/4)-steps.
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)  # the probe's steps grow "very large"
+        h_fine = accuracy.config_for_error(PowerLawPilots(1e-9, p), 1.0)[1]["pilot_fine_step"]
+        c = 0.4 / ((h_fine * 2 ** (3 + frac)) ** p - h_fine**p)
+        r = PowerLawPilots(c, p)
+        cfg, pred = accuracy.config_for_error(r, 1.0)
+    assert pred["pilot_fine_step"] == h_fine
+    within = [h_fine * 2 ** (m / 4) for m in range(40) if c * ((h_fine * 2 ** (m / 4)) ** p - h_fine**p) <= 0.4]
+    assert cfg.step_size == pytest.approx(max(within), rel=1e-9), (frac, p, r.steps)
+    # The octave is searched from its largest step predicted within the
+    # budget (a step predicted over PREDICTED_FAIL times it is not rendered):
+    # one pilot where that step passes (bisecting took two), one or two
+    # where a smaller one does (p = 2 tries 2^(1/2) first, p = 4 skips it).
+    between = [h / h_fine for h in r.steps if 8 < h / h_fine < 16]
+    assert len(between) in {0.1: (0,), 0.4: (1, 2), 0.6: (1,), 0.9: (1,)}[frac], (frac, between)
+    # A failure that grew the error 2^p times ends the doubling where that is
+    # at most SMOOTH_GROWTH (p = 2); a steeper jump may be a spike, and the
+    # next double is tried (p = 4).
+    assert max(r.steps) / h_fine == pytest.approx(16.0 if 2**p <= accuracy.SMOOTH_GROWTH else 32.0)
+
+
 def test_config_for_error_rejects_a_bad_pilot():
     vol, otf = SCENES["shepp_logan"]()
     r = make(vol, otf)
