@@ -160,6 +160,7 @@ impl Params {
         let ext = b.extent() * s;
         let spacing = ext / DVec3::new(f.dims[0] as f64, f.dims[1] as f64, f.dims[2] as f64);
         let light_dir = (light.target - light.position).normalize_or_zero();
+        let (value_prescale, value_scale) = split_scale(f.value_map.scale);
         // A crop that misses the volume leaves an empty box: no ray enters it.
         let clip = match f.clip {
             Some(c) => b.intersection(&c).unwrap_or(Bounds { min: b.min, max: b.min }),
@@ -195,7 +196,7 @@ impl Params {
             anisotropy: cfg.anisotropy as f32,
             shadow_step: normal_f32(cfg.shadow_step() * s),
             preint_side: preintegrate::table_side(f.lut_size as usize) as f32,
-            value_scale: split_scale(f.value_map.scale).1,
+            value_scale,
             value_offset: f.value_map.offset as f32,
             track_rate: finite_f32(cfg.tracking_rate(f.max_extinction / cfg.reference_step_size) / s),
             preint_rows: preintegrate::wrapped_rows(f.lut_size as usize, preintegrate::table_side(f.lut_size as usize))
@@ -215,7 +216,7 @@ impl Params {
             resolve: 0,
             tile_x: 0,
             tile_y: 0,
-            value_prescale: split_scale(f.value_map.scale).0,
+            value_prescale,
             tile_pad: 0,
         }
     }
