@@ -28,10 +28,6 @@ from pyvr.renderer import device_limits
 from pyvr.volume import Volume
 
 LEVELS = 255.0
-# On a GPU the texture units' 8-bit weights are off by more than these
-# tests' tolerances at the helix's step (tests/test_filtering.py): frames
-# compared with the f64 integrator interpolate in the shader there.
-EXACT = not device_limits()["cpu_device"]
 NATIVE = pytest.mark.skipif(not device_limits()["native_march"],
                             reason="the native march runs only where the adapter is a CPU with AVX2 and FMA")
 
@@ -48,7 +44,7 @@ def helix_scene(lit=False):
 def config(r, h, refine, order="front_to_back"):
     steps = int(np.ceil(accuracy.longest_chord(r) / h)) + 2
     return RenderConfig(step_size=h, max_steps=steps, early_ray_termination=False, pre_integrated=True,
-                        refine=refine, order=order, exact_filtering=EXACT)
+                        refine=refine, order=order)
 
 
 def gpu(r, cfg):
