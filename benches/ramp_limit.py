@@ -70,14 +70,15 @@ def main():
     lut = OpacityTransferFunction.peaks([0.25, 0.5, 0.75], opacity=0.6, eps=0.02).to_lut().astype(np.float64)
     entries = np.linspace(0.0, 1.0, len(lut))
     integral = opacity_integral(lut)
-    voxel = 2.0 / SIZE  # the box spans [-1, 1]
+    voxel = 2.0 / SIZE  # the box spans [-1, 1], as in the accuracy benchmark
     rng = np.random.default_rng(7)
 
     def values(origin, direction, t):
         p = origin[None] + t[:, None] * direction[None]
-        # create_sample_volume's formula x runs along numpy axis 1 and y
-        # along axis 0 (meshgrid's 'xy' order); texel centres at linspace(-1, 1).
-        idx = (p[:, [1, 0, 2]] + 1.0) / 2.0 * (SIZE - 1)
+        # World x runs along numpy axis 0 (pyvr's volumes are (x, y, z));
+        # texel centres lie half a voxel in from the box's faces, and
+        # 'nearest' clamps to the edge texels, as the renderer's sampler does.
+        idx = (p + 1.0) / voxel - 0.5
         return map_coordinates(vol, idx.T, order=1, mode="nearest")
 
     def depth(vf, vb, h):
