@@ -82,6 +82,26 @@ def test_view_rejects_bad_input():
         VolumeView(VolumeRenderer(8, 8))
 
 
+def test_a_view_that_fails_to_build_is_collected_quietly(renderer, monkeypatch):
+    # Arguments checked once the widget object exists (the refinement
+    # count, the widget's own traits) leave it half built; collecting it
+    # closes it, which must not raise (Python would print the error after
+    # the one the user was shown).
+    import gc
+    import sys
+
+    from traitlets import TraitError
+
+    unraisable = []
+    monkeypatch.setattr(sys, "unraisablehook", unraisable.append)
+    for kwargs, error in [({"refine_frames": -1}, ValueError), ({"css_width": 5}, TraitError),
+                          ({"target_fps": 0}, ValueError)]:
+        with pytest.raises(error):
+            VolumeView(renderer, **kwargs)
+        gc.collect()
+    assert [str(u.exc_value) for u in unraisable] == []
+
+
 def _image(data: bytes):
     from PIL import Image
 

@@ -50,8 +50,11 @@ class VolumeView(RemoteFrameBuffer):
     (``view.camera``), starting from the renderer's (or a framing one).
     """
 
+    # Set once jupyter_rfb's __init__ has run (`close`).
+    _built = False
+
     def __new__(cls, renderer=None, camera=None, **kwargs):
-        # Checked before the widget exists: a half-built widget fails when collected.
+        # Checked before the widget exists.
         if not isinstance(renderer, VolumeRenderer):
             raise TypeError(f"Expected VolumeRenderer instance, got {type(renderer)}")
         if renderer.get_volume() is None:
@@ -62,15 +65,18 @@ class VolumeView(RemoteFrameBuffer):
 
     def __init__(self, renderer: VolumeRenderer, camera: Optional[Camera] = None, *, target_fps: float = 10.0,
                  refine_frames: int = 0, **kwargs):
-        refinement = Refinement(renderer, refine_frames)  # checks the count before the widget exists
+        # Checked before the widget opens its channel to the notebook.
+        refinement = Refinement(renderer, refine_frames)
+        drag_quality = DragQuality(renderer, target_fps=target_fps)
         kwargs.setdefault("css_width", f"{renderer.width}px")
         kwargs.setdefault("css_height", f"{renderer.height}px")
         super().__init__(**kwargs)
+        self._built = True
         start = camera or renderer.get_camera() or Camera.fit(renderer.get_volume(),
                                                               aspect=renderer.width / renderer.height)
         self.renderer = renderer
         self.controller = CameraController(start)
-        self.drag_quality = DragQuality(renderer, target_fps=target_fps)
+        self.drag_quality = drag_quality
         self._dragging = False
         self._last_pos = None
         self._interacting = False
@@ -82,6 +88,16 @@ class VolumeView(RemoteFrameBuffer):
         self.release_latencies: deque = deque(maxlen=200)
         self.refinement = refinement
         self._last_frame: Optional[np.ndarray] = None
+
+    def close(self, *args, **kwargs) -> None:
+        if self._built:
+            super().close(*args, **kwargs)
+        else:
+            # A widget whose __init__ stopped early (a bad argument) is closed
+            # when collected: jupyter_rfb's close would then send a close
+            # event through state its __init__ never made, and raise after
+            # the error the user was shown. The widget's own close is enough.
+            super(RemoteFrameBuffer, self).close(*args, **kwargs)
 
     @property
     def camera(self) -> Camera:
