@@ -66,6 +66,8 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--rays", type=int, default=600, help="rays through the ring (default 600)")
     args = ap.parse_args()
+    if args.rays < 10:
+        ap.error(f"--rays must be at least 10 (a 99th percentile of fewer says little), got {args.rays}")
     vol = create_sample_volume(SIZE, "torus").astype(np.float64)
     lut = OpacityTransferFunction.peaks([0.25, 0.5, 0.75], opacity=0.6, eps=0.02).to_lut().astype(np.float64)
     entries = np.linspace(0.0, 1.0, len(lut))
