@@ -274,7 +274,7 @@ fn table_windowed(lut: &[[f32; 4]], len_over_ref: f64, form: OpacityCorrection, 
     }
     // Windows of every length d up to the reach, both ways, each written
     // straight into its entry of the band.
-    let out = BandWriter(band.as_mut_ptr());
+    let out = BandWriter(band.as_mut_ptr(), band.len());
     let out = &out;
     let windows_of = |d: usize, scratch: &mut Scratch| {
         let len = len_over_ref / d as f64;
@@ -487,8 +487,9 @@ struct Scratch {
     from_start: Vec<Piece>,
 }
 
-/// The band's entries, written by `table_windowed`'s threads, each its own.
-struct BandWriter(*mut [f32; 4]);
+/// The band's entries (and how many), written by `table_windowed`'s
+/// threads, each its own.
+struct BandWriter(*mut [f32; 4], usize);
 
 // SAFETY: the threads write disjoint entries (`table_windowed`) and nothing
 // reads the band until they have all finished.
@@ -498,6 +499,7 @@ impl BandWriter {
     /// # Safety
     /// `idx` lies in the band, and no other thread writes it.
     unsafe fn write(&self, idx: usize, w: Piece) {
+        debug_assert!(idx < self.1, "entry {idx} outside a band of {}", self.1);
         // SAFETY: the caller's contract.
         unsafe { *self.0.add(idx) = entry([w.c[0], w.c[1], w.c[2], w.x]) };
     }
