@@ -8,6 +8,7 @@
 use glam::DVec3;
 use pyvr_core::config::RenderConfig;
 use pyvr_core::gpu::GpuRenderer;
+use pyvr_core::model::Model;
 use pyvr_core::scene::{Bounds, Camera, Light};
 use pyvr_core::volume::{Precision, VolumeView, Voxels};
 
@@ -41,21 +42,27 @@ fn the_native_march_renders_the_shaders_frame() {
             [x, 1.0 - x, 0.5, if x > 0.2 { 0.6 * (x - 0.2) } else { 0.0 }]
         })
         .collect();
+    // Opaque at every value for the projections: the minimum along a ray
+    // through the box is near 0.
+    let opaque: Vec<[f32; 4]> = lut.iter().map(|&[r, g, b, a]| [r, g, b, 0.3 + a]).collect();
     let camera = Camera { position: DVec3::new(2.2, 1.4, 1.1), target: DVec3::ZERO, up: DVec3::Z, fov_y: 0.8 };
     let light = Light::default();
     let mut r = GpuRenderer::new(40, 36).unwrap();
-    r.set_lut(&lut).unwrap();
     let cpu_adapter = r.context().describe().contains("Cpu");
     let plain = RenderConfig::default();
     let configs = [
         plain.clone(),
         RenderConfig { pre_integrated: true, ..plain.clone() },
         RenderConfig { pre_integrated: true, refine: 8, step_size: 0.03, ..plain.clone() },
+        RenderConfig { model: Model::Mip, ..plain.clone() },
+        RenderConfig { model: Model::MinIp, ..plain.clone() },
+        RenderConfig { model: Model::Average, ..plain.clone() },
     ];
     let mut native_frames = 0;
     for precision in [Precision::Float32, Precision::Fixed16] {
         r.set_volume_with_precision(&vol, precision).unwrap();
         for cfg in &configs {
+            r.set_lut(if cfg.model == Model::EmissionAbsorption { &lut } else { &opaque }).unwrap();
             r.native_march = false;
             let (shader, s) = r.render(&camera, &light, cfg).unwrap();
             assert!(!s.native);
@@ -73,6 +80,6 @@ fn the_native_march_renders_the_shaders_frame() {
         }
     }
     if cpu_adapter && pyvr_core::cpu::available() {
-        assert_eq!(native_frames, 6);
+        assert_eq!(native_frames, 12);
     }
 }

@@ -3,7 +3,8 @@
 Where wgpu's only adapter is a CPU, the frames the native march covers
 (src/cpu: emission-absorption, plain, pre-integrated or refined,
 absorption and emission, front to back, exponential opacity correction, unlit or lit from
-the texels' normals or gradients, one texture) are its, not the shader's. Each case renders one frame both ways
+the texels' normals or gradients, one texture; and the maximum, minimum and
+average intensity projections) are its, not the shader's. Each case renders one frame both ways
 (``native_march`` on and off) and compares the premultiplied images and
 what the frames took. Both run the same rule in f32; they differ in the
 order of sums, fused multiply-adds and the exponential (relative error
@@ -140,6 +141,24 @@ def test_native_march_matches_the_shader(kind, name):
         assert shader[1]["truncated_needed"] > 60
 
 
+@pytest.mark.parametrize("kind", KINDS)
+@pytest.mark.parametrize("model", ["mip", "minip", "average"])
+def test_native_projections_match_the_shader(kind, model):
+    # Opaque at every value, so that the minimum (0 outside the spheres)
+    # shows too; the 'nan' kind's NaN values are passed over.
+    r = renderer(kind)
+    r.set_transfer_functions(ColorTransferFunction.from_colormap("magma"), OpacityTransferFunction.linear(0.3, 0.9))
+    for name, changes in {"balanced": {}, "jitter": {"jitter": True, "jitter_seed": 3, "step_size": 0.03},
+                          "truncated": {"step_size": 0.01, "max_steps": 60}}.items():
+        cfg = RenderConfig.balanced().replace(model=model, **changes)
+        for cam in (OUTSIDE, INSIDE):
+            r.set_camera(cam)
+            native, shader = both(r, cfg)
+            assert_same(native, shader, f"{kind}, {model}, {name}, {'outside' if cam is OUTSIDE else 'inside'}")
+        if name == "truncated":
+            assert native[1]["truncated_needed"] > 60
+
+
 @pytest.mark.parametrize("kind", ["normals_fixed16", "values_float32"])
 def test_skipping_crop_and_value_range_in_the_native_march(kind):
     r = renderer(kind)
@@ -178,7 +197,7 @@ def test_uniform_runs_in_the_native_march():
 @pytest.mark.parametrize("changes, light", [
     ({"order": "back_to_front"}, None),
     ({"opacity_correction": "power"}, None),
-    ({"model": "mip"}, None),
+    ({"model": "isosurface", "iso_value": 0.5}, None),
     ({"model": "single_scattering"}, None),
     ({}, Light.point_light([2.0, 2.0, 2.0])),
 ])

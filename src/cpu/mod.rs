@@ -10,12 +10,15 @@
 //! emission–absorption (plain, pre-integrated or refined), absorption and
 //! emission marched front to back, exponential opacity correction, no
 //! light or a directional one lighting from normals (or gradients) held in
-//! the texels, with or without jitter, skipping and uniform runs, from a
-//! volume held in one texture. Everything else stays on the GPU path,
-//! whose images these match (tests/test_native_march.py).
+//! the texels, with or without jitter, skipping and uniform runs, and the
+//! maximum, minimum and average intensity projections (`projection`),
+//! from a volume held in one texture. Everything else stays on the GPU
+//! path, whose images these match (tests/test_native_march.py).
 
 #[cfg(target_arch = "x86_64")]
 mod avx2;
+#[cfg(target_arch = "x86_64")]
+mod projection;
 #[cfg(target_arch = "x86_64")]
 mod rays8;
 
@@ -69,6 +72,19 @@ pub enum Model {
     Absorption,
     /// Colour alone, added along the ray; alpha 0.
     Emission,
+    /// The transfer function's colour of the largest value along the ray.
+    Mip,
+    /// Of the smallest.
+    MinIp,
+    /// Of the mean, weighted by length.
+    Average,
+}
+
+impl Model {
+    /// A projection of the values (`projection`), not an integral.
+    pub fn projects(self) -> bool {
+        matches!(self, Model::Mip | Model::MinIp | Model::Average)
+    }
 }
 
 /// One frame of the native march.
@@ -262,6 +278,14 @@ fn march_row(frame: &Frame, col0: u32, row: u32, out: &mut [[f32; 4]; TILE], hal
     {
         // SAFETY: `render` checked AVX2 and FMA and the paddings.
         unsafe {
+            if frame.model.projects() {
+                return match &frame.volume.texels {
+                    Texels::Rgba32Float(t) => projection::project(frame, &avx2::Rgba32Float(t), col0, row, out, halt),
+                    Texels::Rgba16Snorm(t) => projection::project(frame, &avx2::Rgba16Snorm(t), col0, row, out, halt),
+                    Texels::R32Float(t) => projection::project(frame, &avx2::R32Float(t), col0, row, out, halt),
+                    Texels::R16Snorm(t) => projection::project(frame, &avx2::R16Snorm(t), col0, row, out, halt),
+                };
+            }
             match &frame.volume.texels {
                 Texels::Rgba32Float(t) => avx2::march(frame, &avx2::Rgba32Float(t), col0, row, out, halt),
                 Texels::Rgba16Snorm(t) => avx2::march(frame, &avx2::Rgba16Snorm(t), col0, row, out, halt),

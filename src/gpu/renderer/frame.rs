@@ -77,20 +77,23 @@ impl GpuRenderer {
         let Some(cpu) = self.volume.as_ref().and_then(|v| v.cpu.as_ref()) else {
             return false;
         };
-        let shading = match variant.shading {
-            Shading::AmbientOnly => true,
-            Shading::Normals => variant.layout.normals_in_volume && cpu.has_normals(),
-            Shading::Gradient => false,
-        };
-        let model = matches!(variant.model, Model::EmissionAbsorption | Model::Absorption | Model::Emission);
+        let projects = matches!(variant.model, Model::Mip | Model::MinIp | Model::Average);
+        let integrates = matches!(variant.model, Model::EmissionAbsorption | Model::Absorption | Model::Emission);
+        // Projections take neither light nor opacity correction.
+        let shading = projects
+            || match variant.shading {
+                Shading::AmbientOnly => true,
+                Shading::Normals => variant.layout.normals_in_volume && cpu.has_normals(),
+                Shading::Gradient => false,
+            };
         self.native_march
             && shading
-            && model
+            && (projects || integrates)
             && !variant.back_to_front
             && (!variant.pre_integrated || variant.model == Model::EmissionAbsorption)
             && !variant.unbiased
-            && !variant.point_light
-            && variant.correction == OpacityCorrection::Exponential
+            && (projects || !variant.point_light)
+            && (projects || variant.correction == OpacityCorrection::Exponential)
             && self.tables.rows.len() >= 2
             && cfg.max_steps <= crate::cpu::MAX_STEPS as i64
     }
@@ -104,21 +107,27 @@ impl GpuRenderer {
         let mut params = *params;
         params.value_scale = (params.value_prescale as f64 * params.value_scale as f64) as f32;
         params.value_prescale = 1.0;
+        let model = match variant.model {
+            Model::Absorption => crate::cpu::Model::Absorption,
+            Model::Emission => crate::cpu::Model::Emission,
+            Model::Mip => crate::cpu::Model::Mip,
+            Model::MinIp => crate::cpu::Model::MinIp,
+            Model::Average => crate::cpu::Model::Average,
+            _ => crate::cpu::Model::EmissionAbsorption,
+        };
+        // Projections read every segment (the shader's too): no leaps, no runs.
+        let cells = !occ.codes.is_empty() && !model.projects();
         let frame = crate::cpu::Frame {
             params: &params,
             volume: cpu,
             lut: &self.tables.rows,
-            cells: (!occ.codes.is_empty()).then_some((&occ.codes[..], occ.dims)),
-            skip_empty: variant.skip_empty && !occ.codes.is_empty(),
-            lit: variant.shading == Shading::Normals,
-            early_termination: variant.early_termination,
+            cells: cells.then_some((&occ.codes[..], occ.dims)),
+            skip_empty: variant.skip_empty && cells,
+            lit: variant.shading == Shading::Normals && !model.projects(),
+            early_termination: variant.early_termination && !model.projects(),
             jitter: variant.jitter,
-            uniform_runs: variant.uniform_cells && !occ.codes.is_empty(),
-            model: match variant.model {
-                Model::Absorption => crate::cpu::Model::Absorption,
-                Model::Emission => crate::cpu::Model::Emission,
-                _ => crate::cpu::Model::EmissionAbsorption,
-            },
+            uniform_runs: variant.uniform_cells && cells,
+            model,
             preint: variant.pre_integrated.then_some(&self.tables.preint_texels),
             refine: if variant.pre_integrated { variant.refine } else { 0 },
         };

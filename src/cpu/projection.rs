@@ -1,0 +1,150 @@
+//! Maximum, minimum and average intensity projections in the native march
+//! (shaders/projections.wgsl): eight rays in the lanes of AVX2 registers,
+//! one trilinear read at each segment's midpoint, NaN values passed over,
+//! and the pixel the transfer function's premultiplied colour of the value
+//! projected. No cell is leapt: every value counts, whatever its opacity.
+
+use super::avx2::Texels;
+use super::{Frame, Model, Stats, TILE};
+use std::arch::x86_64::*;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// Pixels col0..col0 + 8 of `row` of a projection (`f.model` is Mip, MinIp
+/// or Average); stops early (its pixels then are garbage) once `halt` is set.
+///
+/// # Safety
+/// Needs AVX2 and FMA, and R16Snorm codes followed by one more (`super::render` checks).
+#[target_feature(enable = "avx2,fma")]
+pub unsafe fn project<T: Texels>(
+    f: &Frame,
+    tex: &T,
+    col0: u32,
+    row: u32,
+    out: &mut [[f32; 4]; TILE],
+    halt: &AtomicBool,
+) -> Stats {
+    let p = f.params;
+    let dims = f.volume.dims;
+    // SAFETY: the caller checked AVX2 and FMA.
+    let rays = unsafe { super::rays8::rays(f, col0, row) };
+    let set = _mm256_set1_ps;
+    let (zero, zi, onei) = (_mm256_setzero_ps(), _mm256_setzero_si256(), _mm256_set1_epi32(1));
+    // Cell-centred voxel coordinates along each numpy axis at the chord's
+    // start, and per unit of ray parameter (as the compositing march's).
+    let start: [__m256; 3] = std::array::from_fn(|k| {
+        let at = _mm256_add_ps(set(p.cam_pos[k]), _mm256_mul_ps(rays.d[k], rays.t0));
+        let tc = _mm256_add_ps(_mm256_mul_ps(at, set(p.tex_scale[k])), set(p.tex_offset[k]));
+        _mm256_sub_ps(_mm256_mul_ps(tc, set(dims[k] as f32)), set(0.5))
+    });
+    let per: [__m256; 3] =
+        std::array::from_fn(|k| _mm256_mul_ps(_mm256_mul_ps(rays.d[k], set(p.tex_scale[k])), set(dims[k] as f32)));
+    let h = set(p.step_size);
+    let shift_h = _mm256_mul_ps(rays.shift, h);
+    let first_len = _mm256_min_ps(_mm256_mul_ps(_mm256_add_ps(set(1.0), rays.shift), h), rays.chord);
+    let hi: [__m256i; 3] = dims.map(|d| _mm256_set1_epi32(d as i32 - 1));
+    let stride = tex.strides(dims).map(|s| _mm256_set1_epi32(s));
+    // `value_prescale` is left out: the caller joins a split scale into `value_scale`.
+    let value_scale = set(p.value_scale * T::VALUE_UNIT);
+    let value_offset = set(p.value_offset);
+    let as_ps = _mm256_castsi256_ps;
+
+    let mut i = rays.lo;
+    let mut active = as_ps(_mm256_cmpgt_epi32(rays.hi, i));
+    // The maximum or minimum so far (`seen`: where a value was read), or
+    // the sums of value times length and of length.
+    let (mut best, mut seen) = (zero, zero);
+    let (mut sum, mut length) = (zero, zero);
+    let mut taken = zi;
+    let mut steps = 0u32;
+    while _mm256_movemask_ps(active) != 0 {
+        steps = steps.wrapping_add(1);
+        if steps % 1024 == 0 && halt.load(Ordering::Relaxed) {
+            break;
+        }
+        // The segment (rays.wgsl `span`): the first one is shorter under jitter.
+        let a = _mm256_fmadd_ps(_mm256_cvtepi32_ps(i), h, shift_h);
+        let before = _mm256_cmp_ps::<_CMP_LT_OQ>(a, zero);
+        let start_at = _mm256_andnot_ps(before, a);
+        let seg = _mm256_blendv_ps(_mm256_max_ps(_mm256_min_ps(h, _mm256_sub_ps(rays.chord, a)), zero), first_len, before);
+        let mid = _mm256_fmadd_ps(seg, set(0.5), start_at);
+        let reads = _mm256_and_ps(active, _mm256_cmp_ps::<_CMP_GT_OQ>(seg, zero));
+        taken = _mm256_sub_epi32(taken, _mm256_castps_si256(reads));
+        let mut w = [zero; 3];
+        let mut offs = [[zi; 2]; 3];
+        for k in 0..3 {
+            let u = _mm256_fmadd_ps(per[k], mid, start[k]);
+            let fl = _mm256_floor_ps(u);
+            w[k] = _mm256_sub_ps(u, fl);
+            let base = _mm256_cvttps_epi32(fl);
+            let clamp = |v: __m256i| _mm256_min_epi32(_mm256_max_epi32(v, zi), hi[k]);
+            offs[k] = [
+                _mm256_mullo_epi32(clamp(base), stride[k]),
+                _mm256_mullo_epi32(clamp(_mm256_add_epi32(base, onei)), stride[k]),
+            ];
+        }
+        // SAFETY: the offsets are clamped into the texture.
+        let texel = unsafe { tex.trilinear(&offs, &w) };
+        let v = _mm256_fmadd_ps(texel[0], value_scale, value_offset);
+        let valid = _mm256_and_ps(reads, _mm256_cmp_ps::<_CMP_ORD_Q>(v, v));
+        match f.model {
+            Model::Average => {
+                sum = _mm256_blendv_ps(sum, _mm256_add_ps(sum, _mm256_mul_ps(v, seg)), valid);
+                length = _mm256_blendv_ps(length, _mm256_add_ps(length, seg), valid);
+            }
+            model => {
+                let kept = if model == Model::Mip { _mm256_max_ps(best, v) } else { _mm256_min_ps(best, v) };
+                best = _mm256_blendv_ps(best, _mm256_blendv_ps(v, kept, seen), valid);
+                seen = _mm256_or_ps(seen, valid);
+            }
+        }
+        i = _mm256_sub_epi32(i, _mm256_castps_si256(active));
+        active = _mm256_and_ps(active, as_ps(_mm256_cmpgt_epi32(rays.hi, i)));
+    }
+
+    let lanes = |x: __m256| -> [f32; 8] {
+        let mut l = [0f32; 8];
+        // SAFETY: an unaligned store of eight floats into eight.
+        unsafe { _mm256_storeu_ps(l.as_mut_ptr(), x) };
+        l
+    };
+    let (best, seen, sum, length, needed) = (lanes(best), lanes(seen), lanes(sum), lanes(length), lanes(rays.needed));
+    let (mut counts, mut steps_n) = ([0i32; 8], [0i32; 8]);
+    // SAFETY: unaligned stores of eight integers into eight.
+    unsafe {
+        _mm256_storeu_si256(counts.as_mut_ptr() as *mut __m256i, taken);
+        _mm256_storeu_si256(steps_n.as_mut_ptr() as *mut __m256i, rays.n);
+    }
+    let hits = _mm256_movemask_ps(rays.hit);
+    let mut stats = Stats::default();
+    for l in 0..TILE {
+        out[l] = [0.0; 4];
+        if hits & (1 << l) == 0 {
+            continue;
+        }
+        stats.samples += counts[l] as u64;
+        // (`as u32` saturates, as the scalar rule's conversion does.)
+        let needed = needed[l] as u32;
+        if (steps_n[l] as u32) < needed {
+            stats.truncated_needed = stats.truncated_needed.max(needed);
+        }
+        let value = match f.model {
+            Model::Average if length[l] > 0.0 => sum[l] / length[l],
+            Model::Average => continue,
+            _ if seen[l].to_bits() != 0 => best[l],
+            _ => continue,
+        };
+        let c = lut_entry(f.lut, value);
+        out[l] = [c[0] * c[3], c[1] * c[3], c[2] * c[3], c[3]];
+    }
+    stats
+}
+
+/// The transfer function's entry for `v` (sampling.wgsl `eval_lut`): linear
+/// between the entries around v, clamped to [0, 1].
+fn lut_entry(lut: &[[f32; 4]], v: f32) -> [f32; 4] {
+    let m = lut.len();
+    let x = v.clamp(0.0, 1.0) * (m - 1) as f32;
+    let k = (x as usize).min(m - 2);
+    let t = x - k as f32;
+    std::array::from_fn(|c| (lut[k + 1][c] - lut[k][c]).mul_add(t, lut[k][c]))
+}
