@@ -186,6 +186,30 @@ def test_projections_match_numpy(model):
     assert np.all(img[~hit] == 0)
 
 
+@pytest.mark.parametrize("model, most", [("mip", 0.4), ("minip", 0.9)])
+def test_projection_rays_stop_once_the_table_saturates(model, most):
+    # Values mapped past [0, 1] show as 0 or 1, so a ray whose maximum
+    # reaches 1 (whose minimum reaches 0) stops there with its pixel; the
+    # average of the same rays takes every sample. Measured (71% and 34% of
+    # the rays saturated): MIP 0.30 and MinIP 0.85 of the average's samples.
+    r, vol, cam, cfg = projection_scene(model)
+    r.set_transfer_functions(ColorTransferFunction.from_colormap("gray"), OpacityTransferFunction.linear(0.0, 1.0),
+                             value_range=(0.4, 0.6))
+    img = r.render(dtype=np.float32, premultiplied=True)
+    samples = r.last_frame_stats["samples"]
+    r.render(config=cfg.replace(model="average"))
+    every = r.last_frame_stats["samples"]
+    vals, seg = sampled_values(vol, cam, cfg.step_size, 40, 32)
+    hit = seg.sum(axis=-1) > 0
+    mapped = np.where(seg > 0, (vals - 0.4) / 0.2, np.nan)
+    expect = np.clip(np.nanmax(mapped, axis=-1) if model == "mip" else np.nanmin(mapped, axis=-1), 0, 1)
+    saturated = (expect == 1.0) if model == "mip" else (expect == 0.0)
+    assert saturated[hit].mean() > 0.3
+    assert np.abs(img[..., 3][hit] - expect[hit]).max() < TOL
+    assert np.abs(img[..., 0][hit] - expect[hit] ** 2).max() < TOL
+    assert samples < most * every, (samples, every)
+
+
 def test_isosurface_lies_on_the_sphere():
     # The interpolated distance field departs from the sphere by about
     # h^2 / (4 R) for voxel size h: 1.6e-4 here, below a tenth of any step used.

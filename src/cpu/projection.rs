@@ -2,7 +2,9 @@
 //! (shaders/projections.wgsl): eight rays in the lanes of AVX2 registers,
 //! one trilinear read at each segment's midpoint, NaN values passed over,
 //! and the pixel the transfer function's premultiplied colour of the value
-//! projected. No cell is leapt: every value counts, whatever its opacity.
+//! projected. No cell is leapt: every value counts, whatever its opacity;
+//! but the table clamps values to [0, 1], so a ray whose maximum reaches 1
+//! (whose minimum reaches 0) has its pixel and stops, as the shader's do.
 
 use super::avx2::Texels;
 use super::{Frame, Model, Stats, TILE};
@@ -49,14 +51,21 @@ pub unsafe fn project<T: Texels>(
     let as_ps = _mm256_castsi256_ps;
 
     let mut i = rays.lo;
-    let mut active = as_ps(_mm256_cmpgt_epi32(rays.hi, i));
+    // Lanes whose segments are not all marched. Their steps never wait on
+    // the values read (the next read's address would then wait on this
+    // one's, and reads would no longer overlap); a lane that has stopped
+    // reads nothing more, and the march ends when every lane is done or
+    // stopped.
+    let mut going = as_ps(_mm256_cmpgt_epi32(rays.hi, i));
     // The maximum or minimum so far (`seen`: where a value was read), or
     // the sums of value times length and of length.
     let (mut best, mut seen) = (zero, zero);
     let (mut sum, mut length) = (zero, zero);
     let mut taken = zi;
+    let mut stopped = zero;
     let mut steps = 0u32;
-    while _mm256_movemask_ps(active) != 0 {
+    while _mm256_movemask_ps(_mm256_andnot_ps(stopped, going)) != 0 {
+        let active = _mm256_andnot_ps(stopped, going);
         steps = steps.wrapping_add(1);
         if steps % 1024 == 0 && halt.load(Ordering::Relaxed) {
             break;
@@ -92,13 +101,16 @@ pub unsafe fn project<T: Texels>(
                 length = _mm256_blendv_ps(length, _mm256_add_ps(length, seg), valid);
             }
             model => {
-                let kept = if model == Model::Mip { _mm256_max_ps(best, v) } else { _mm256_min_ps(best, v) };
+                let mip = model == Model::Mip;
+                let kept = if mip { _mm256_max_ps(best, v) } else { _mm256_min_ps(best, v) };
                 best = _mm256_blendv_ps(best, _mm256_blendv_ps(v, kept, seen), valid);
                 seen = _mm256_or_ps(seen, valid);
+                let done = if mip { _mm256_cmp_ps::<_CMP_GE_OQ>(best, set(1.0)) } else { _mm256_cmp_ps::<_CMP_LE_OQ>(best, zero) };
+                stopped = _mm256_or_ps(stopped, _mm256_and_ps(valid, done));
             }
         }
-        i = _mm256_sub_epi32(i, _mm256_castps_si256(active));
-        active = _mm256_and_ps(active, as_ps(_mm256_cmpgt_epi32(rays.hi, i)));
+        i = _mm256_sub_epi32(i, _mm256_castps_si256(going));
+        going = _mm256_and_ps(going, as_ps(_mm256_cmpgt_epi32(rays.hi, i)));
     }
 
     let lanes = |x: __m256| -> [f32; 8] {
@@ -108,6 +120,7 @@ pub unsafe fn project<T: Texels>(
         l
     };
     let (best, seen, sum, length, needed) = (lanes(best), lanes(seen), lanes(sum), lanes(length), lanes(rays.needed));
+    let stopped = lanes(stopped);
     let (mut counts, mut steps_n) = ([0i32; 8], [0i32; 8]);
     // SAFETY: unaligned stores of eight integers into eight.
     unsafe {
@@ -124,7 +137,7 @@ pub unsafe fn project<T: Texels>(
         stats.samples += counts[l] as u64;
         // (`as u32` saturates, as the scalar rule's conversion does.)
         let needed = needed[l] as u32;
-        if (steps_n[l] as u32) < needed {
+        if stopped[l].to_bits() == 0 && (steps_n[l] as u32) < needed {
             stats.truncated_needed = stats.truncated_needed.max(needed);
         }
         let value = match f.model {
