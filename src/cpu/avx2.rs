@@ -3,6 +3,7 @@
 //! until every lane's ray is done.
 
 use super::{Frame, Model, Stats, CELL, CHAIN, TILE};
+use crate::gpu::params::Params;
 use std::arch::x86_64::*;
 use std::sync::atomic::{AtomicBool, Ordering};
 
@@ -212,6 +213,43 @@ fn one_minus_exp_neg(x: __m256) -> __m256 {
     _mm256_blendv_ps(full, series, _mm256_cmp_ps::<_CMP_LT_OQ>(x, _mm256_set1_ps(1e-3)))
 }
 
+/// Cell-centred voxel coordinates along each numpy axis at the chords'
+/// start, and per unit of ray parameter.
+#[inline]
+#[target_feature(enable = "avx2,fma")]
+pub(super) fn voxel_axes(p: &Params, rays: &super::rays8::Rays, dims: [usize; 3]) -> ([__m256; 3], [__m256; 3]) {
+    let set = _mm256_set1_ps;
+    let start = std::array::from_fn(|k| {
+        let at = _mm256_add_ps(set(p.cam_pos[k]), _mm256_mul_ps(rays.d[k], rays.t0));
+        let tc = _mm256_add_ps(_mm256_mul_ps(at, set(p.tex_scale[k])), set(p.tex_offset[k]));
+        _mm256_sub_ps(_mm256_mul_ps(tc, set(dims[k] as f32)), set(0.5))
+    });
+    let per = std::array::from_fn(|k| _mm256_mul_ps(_mm256_mul_ps(rays.d[k], set(p.tex_scale[k])), set(dims[k] as f32)));
+    (start, per)
+}
+
+/// The texel offsets of the two corners around cell-centred coordinate `u`
+/// along each axis, clamped to the texture's last texel `hi` (times the
+/// axis's `stride`), and the weights of the upper ones.
+#[inline]
+#[target_feature(enable = "avx2,fma")]
+pub(super) fn corners(u: &[__m256; 3], hi: &[__m256i; 3], stride: &[__m256i; 3]) -> ([[__m256i; 2]; 3], [__m256; 3]) {
+    let (zi, onei) = (_mm256_setzero_si256(), _mm256_set1_epi32(1));
+    let mut w = [_mm256_setzero_ps(); 3];
+    let mut offs = [[zi; 2]; 3];
+    for k in 0..3 {
+        let fl = _mm256_floor_ps(u[k]);
+        w[k] = _mm256_sub_ps(u[k], fl);
+        let base = _mm256_cvttps_epi32(fl);
+        let clamp = |v: __m256i| _mm256_min_epi32(_mm256_max_epi32(v, zi), hi[k]);
+        offs[k] = [
+            _mm256_mullo_epi32(clamp(base), stride[k]),
+            _mm256_mullo_epi32(clamp(_mm256_add_epi32(base, onei)), stride[k]),
+        ];
+    }
+    (offs, w)
+}
+
 /// Pixels col0..col0 + 8 of `row` (those without a ray stay transparent).
 ///
 /// Stops early (its pixels then are garbage) once `halt` is set.
@@ -231,16 +269,7 @@ pub unsafe fn march<T: Texels>(
     let p = f.params;
     let dims = f.volume.dims;
     let rays = super::rays8::rays(f, col0, row);
-    let set = _mm256_set1_ps;
-    // Cell-centred voxel coordinates along each numpy axis at the chord's
-    // start, and per unit of ray parameter.
-    let start: [__m256; 3] = std::array::from_fn(|k| {
-        let at = _mm256_add_ps(set(p.cam_pos[k]), _mm256_mul_ps(rays.d[k], rays.t0));
-        let tc = _mm256_add_ps(_mm256_mul_ps(at, set(p.tex_scale[k])), set(p.tex_offset[k]));
-        _mm256_sub_ps(_mm256_mul_ps(tc, set(dims[k] as f32)), set(0.5))
-    });
-    let per: [__m256; 3] =
-        std::array::from_fn(|k| _mm256_mul_ps(_mm256_mul_ps(rays.d[k], set(p.tex_scale[k])), set(dims[k] as f32)));
+    let (start, per) = voxel_axes(p, &rays, dims);
     let moving: [__m256; 3] = std::array::from_fn(|k| _mm256_cmp_ps::<_CMP_NEQ_OQ>(per[k], _mm256_setzero_ps()));
     let ahead: [__m256; 3] = std::array::from_fn(|k| _mm256_cmp_ps::<_CMP_GT_OQ>(per[k], _mm256_setzero_ps()));
     // Ray parameter per voxel along each axis (1 where the ray does not move along it).
@@ -523,18 +552,7 @@ pub unsafe fn march<T: Texels>(
             (zero, [zero; 3])
         } else {
             let u = coords(at);
-            let mut w = [zero; 3];
-            let mut offs = [[zi; 2]; 3];
-            for k in 0..3 {
-                let fl = _mm256_floor_ps(u[k]);
-                w[k] = _mm256_sub_ps(u[k], fl);
-                let base = _mm256_cvttps_epi32(fl);
-                let clamp = |v: __m256i| _mm256_min_epi32(_mm256_max_epi32(v, zi), hi[k]);
-                offs[k] = [
-                    _mm256_mullo_epi32(clamp(base), stride[k]),
-                    _mm256_mullo_epi32(clamp(_mm256_add_epi32(base, onei)), stride[k]),
-                ];
-            }
+            let (offs, w) = corners(&u, &hi, &stride);
             if prefetch {
                 // The next segment's sample: its four rows of corners (two
                 // planes, two rows each) on their way while this one is read.

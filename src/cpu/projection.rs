@@ -6,7 +6,7 @@
 //! but the table clamps values to [0, 1], so a ray whose maximum reaches 1
 //! (whose minimum reaches 0) has its pixel and stops, as the shader's do.
 
-use super::avx2::Texels;
+use super::avx2::{corners, voxel_axes, Texels};
 use super::{Frame, Model, Stats, TILE};
 use std::arch::x86_64::*;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -30,16 +30,8 @@ pub unsafe fn project<T: Texels>(
     // SAFETY: the caller checked AVX2 and FMA.
     let rays = unsafe { super::rays8::rays(f, col0, row) };
     let set = _mm256_set1_ps;
-    let (zero, zi, onei) = (_mm256_setzero_ps(), _mm256_setzero_si256(), _mm256_set1_epi32(1));
-    // Cell-centred voxel coordinates along each numpy axis at the chord's
-    // start, and per unit of ray parameter (as the compositing march's).
-    let start: [__m256; 3] = std::array::from_fn(|k| {
-        let at = _mm256_add_ps(set(p.cam_pos[k]), _mm256_mul_ps(rays.d[k], rays.t0));
-        let tc = _mm256_add_ps(_mm256_mul_ps(at, set(p.tex_scale[k])), set(p.tex_offset[k]));
-        _mm256_sub_ps(_mm256_mul_ps(tc, set(dims[k] as f32)), set(0.5))
-    });
-    let per: [__m256; 3] =
-        std::array::from_fn(|k| _mm256_mul_ps(_mm256_mul_ps(rays.d[k], set(p.tex_scale[k])), set(dims[k] as f32)));
+    let (zero, zi) = (_mm256_setzero_ps(), _mm256_setzero_si256());
+    let (start, per) = voxel_axes(p, &rays, dims);
     let h = set(p.step_size);
     let shift_h = _mm256_mul_ps(rays.shift, h);
     let first_len = _mm256_min_ps(_mm256_mul_ps(_mm256_add_ps(set(1.0), rays.shift), h), rays.chord);
@@ -78,19 +70,8 @@ pub unsafe fn project<T: Texels>(
         let mid = _mm256_fmadd_ps(seg, set(0.5), start_at);
         let reads = _mm256_and_ps(active, _mm256_cmp_ps::<_CMP_GT_OQ>(seg, zero));
         taken = _mm256_sub_epi32(taken, _mm256_castps_si256(reads));
-        let mut w = [zero; 3];
-        let mut offs = [[zi; 2]; 3];
-        for k in 0..3 {
-            let u = _mm256_fmadd_ps(per[k], mid, start[k]);
-            let fl = _mm256_floor_ps(u);
-            w[k] = _mm256_sub_ps(u, fl);
-            let base = _mm256_cvttps_epi32(fl);
-            let clamp = |v: __m256i| _mm256_min_epi32(_mm256_max_epi32(v, zi), hi[k]);
-            offs[k] = [
-                _mm256_mullo_epi32(clamp(base), stride[k]),
-                _mm256_mullo_epi32(clamp(_mm256_add_epi32(base, onei)), stride[k]),
-            ];
-        }
+        let u: [__m256; 3] = std::array::from_fn(|k| _mm256_fmadd_ps(per[k], mid, start[k]));
+        let (offs, w) = corners(&u, &hi, &stride);
         // SAFETY: the offsets are clamped into the texture.
         let texel = unsafe { tex.trilinear(&offs, &w) };
         let v = _mm256_fmadd_ps(texel[0], value_scale, value_offset);
