@@ -57,6 +57,7 @@ fn the_native_march_renders_the_shaders_frame() {
         RenderConfig { model: Model::Mip, ..plain.clone() },
         RenderConfig { model: Model::MinIp, ..plain.clone() },
         RenderConfig { model: Model::Average, ..plain.clone() },
+        RenderConfig { model: Model::Isosurface, iso_value: 0.4, ..plain.clone() },
     ];
     let mut native_frames = 0;
     for precision in [Precision::Float32, Precision::Fixed16] {
@@ -80,6 +81,6 @@ fn the_native_march_renders_the_shaders_frame() {
         }
     }
     if cpu_adapter && pyvr_core::cpu::available() {
-        assert_eq!(native_frames, 12);
+        assert_eq!(native_frames, 14);
     }
 }

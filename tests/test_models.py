@@ -20,6 +20,7 @@ from pyvr import RenderConfig
 from pyvr.camera import Camera
 from pyvr.datasets import compute_normal_volume, create_sample_volume
 from pyvr.lighting import Light
+from pyvr.renderer import device_limits
 from pyvr.transferfunctions import ColorTransferFunction, OpacityTransferFunction
 from pyvr.volume import Volume
 from reference.moderngl_reference import render_reference
@@ -445,6 +446,7 @@ def test_isosurface_skipping_and_multi_pass_keep_every_hit():
     cfg = RenderConfig(model="isosurface", iso_value=0.7, step_size=1e-4, max_steps=40_000)
     r = renderer(vol, ColorTransferFunction.single_color((0.8, 0.7, 0.6)), OpacityTransferFunction.linear(), cam,
                  Light.default(), cfg, 24, 20)
+    r.native_march = False  # the shader's passes (the native march takes one)
     img = r.render(dtype=np.float32, premultiplied=True)
     assert r.last_frame_stats["passes"] == 3
     assert r.empty_fraction() > 0.8
@@ -461,3 +463,13 @@ def test_isosurface_skipping_and_multi_pass_keep_every_hit():
     oracle = r.last_float64_depth
     assert hit.sum() > 20 and np.array_equal(hit, np.isfinite(oracle))
     assert np.abs(depth[hit] - oracle[hit]).max() < 1e-4
+    if device_limits()["native_march"]:
+        r.native_march = r.empty_space_skipping = True
+        native = r.render(dtype=np.float32, premultiplied=True)
+        assert r.last_frame_stats["engine"] == "native"
+        # (Measured 0.08% fewer: the shader's leaps stop at each dispatch's
+        # end, and the next dispatch reads its first segment.)
+        assert abs(r.last_frame_stats["samples"] - skipped) < 2e-3 * skipped
+        assert np.array_equal(hit, np.isfinite(r.depth()))
+        assert np.abs(r.depth()[hit] - oracle[hit]).max() < 1e-4
+        assert np.abs(native - img).max() < 0.25 / 255

@@ -159,6 +159,43 @@ def test_native_projections_match_the_shader(kind, model):
             assert native[1]["truncated_needed"] > 60
 
 
+@pytest.mark.parametrize("kind", KINDS)
+def test_native_isosurface_matches_the_shader(kind):
+    # The surface's colour and light, its hit distance, and the samples:
+    # entry, midpoints, exit, a lower end re-read after a leap, bisections.
+    r = renderer(kind)
+    r.set_transfer_functions(ColorTransferFunction.from_colormap("viridis"), OpacityTransferFunction.linear(0.0, 0.5))
+    # Long steps meet the surface right after leaps, whose lower ends are read then.
+    for name, changes in {"balanced": {}, "jitter": {"jitter": True, "jitter_seed": 3, "step_size": 0.03},
+                          "long_steps": {"step_size": 0.2},
+                          "truncated": {"step_size": 0.01, "max_steps": 60}}.items():
+        cfg = RenderConfig.balanced().replace(model="isosurface", iso_value=0.45, **changes)
+        for skip in (True, False):
+            r.empty_space_skipping = skip
+            for cam in (OUTSIDE, INSIDE):
+                r.set_camera(cam)
+                where = f"{kind}, {name}, skip={skip}, {'outside' if cam is OUTSIDE else 'inside'}"
+                (a, sa), (b, sb) = both(r, cfg)
+                assert sa["engine"] == "native" and sb["engine"] == "gpu", where
+                r.native_march = True
+                r.render(config=cfg)
+                da = r.depth()
+                r.native_march = False
+                r.render(config=cfg)
+                db = r.depth()
+                r.native_march = True
+                assert (np.isinf(da) == np.isinf(db)).mean() > 0.999, where
+                both_hit = np.isfinite(da) & np.isfinite(db)
+                assert both_hit.sum() > (10 if name == "truncated" else 50), where
+                # A thousandth of a step (the bisections end within 1/256 of one).
+                assert np.abs(da[both_hit] - db[both_hit]).max() < 1e-3 * cfg.step_size, where
+                assert_same((a, sa), (b, sb), where)
+                # The same points (measured: at most one apart, a test rounded the other way).
+                assert abs(sa["samples"] - sb["samples"]) <= 2, where
+                if name == "truncated" and cam is OUTSIDE:
+                    assert sa["truncated_needed"] > 60, where
+
+
 @pytest.mark.parametrize("kind", ["normals_fixed16", "values_float32"])
 def test_skipping_crop_and_value_range_in_the_native_march(kind):
     r = renderer(kind)
@@ -197,8 +234,8 @@ def test_uniform_runs_in_the_native_march():
 @pytest.mark.parametrize("changes, light", [
     ({"order": "back_to_front"}, None),
     ({"opacity_correction": "power"}, None),
-    ({"model": "isosurface", "iso_value": 0.5}, None),
     ({"model": "single_scattering"}, None),
+    ({"unbiased": True}, None),
     ({}, Light.point_light([2.0, 2.0, 2.0])),
 ])
 def test_frames_the_native_march_does_not_cover_stay_on_the_shader(changes, light):

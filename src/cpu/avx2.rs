@@ -213,6 +213,23 @@ fn one_minus_exp_neg(x: __m256) -> __m256 {
     _mm256_blendv_ps(full, series, _mm256_cmp_ps::<_CMP_LT_OQ>(x, _mm256_set1_ps(1e-3)))
 }
 
+/// The light at a texel lit from its normal (texel[1..4], any length) by a
+/// directional light travelling along `light_dir` (lighting.wgsl
+/// `light_intensity`): ambient where the normal is zero.
+#[inline]
+#[target_feature(enable = "avx2,fma")]
+pub(super) fn lit_by(texel: &[__m256; 4], light_dir: &[__m256; 3], ambient: __m256, diffuse: __m256) -> __m256 {
+    let (zero, one) = (_mm256_setzero_ps(), _mm256_set1_ps(1.0));
+    let mag = _mm256_max_ps(_mm256_max_ps(abs(texel[1]), abs(texel[2])), abs(texel[3]));
+    let lit = _mm256_cmp_ps::<_CMP_GT_OQ>(mag, zero);
+    let inv = _mm256_div_ps(one, _mm256_blendv_ps(one, mag, lit));
+    let nrm: [__m256; 3] = std::array::from_fn(|c| _mm256_mul_ps(texel[c + 1], inv));
+    let len = _mm256_sqrt_ps(_mm256_fmadd_ps(nrm[0], nrm[0], _mm256_fmadd_ps(nrm[1], nrm[1], _mm256_mul_ps(nrm[2], nrm[2]))));
+    let dot = _mm256_fmadd_ps(nrm[0], light_dir[0], _mm256_fmadd_ps(nrm[1], light_dir[1], _mm256_mul_ps(nrm[2], light_dir[2])));
+    let cos = _mm256_max_ps(_mm256_div_ps(dot, _mm256_blendv_ps(one, len, lit)), zero);
+    _mm256_blendv_ps(ambient, _mm256_fmadd_ps(diffuse, cos, ambient), lit)
+}
+
 /// Cell-centred voxel coordinates along each numpy axis at the chords'
 /// start, and per unit of ray parameter.
 #[inline]
@@ -583,17 +600,7 @@ pub unsafe fn march<T: Texels>(
             // NaN reads as value 0 and opacity 0.
             let v = _mm256_fmadd_ps(texel[0], value_scale, value_offset);
             let valid = _mm256_cmp_ps::<_CMP_ORD_Q>(v, v);
-            let mut light = ambient;
-            if directional {
-                let mag = _mm256_max_ps(_mm256_max_ps(abs(texel[1]), abs(texel[2])), abs(texel[3]));
-                let lit = _mm256_cmp_ps::<_CMP_GT_OQ>(mag, zero);
-                let inv = _mm256_div_ps(one, _mm256_blendv_ps(one, mag, lit));
-                let nrm: [__m256; 3] = std::array::from_fn(|c| _mm256_mul_ps(texel[c + 1], inv));
-                let len = _mm256_sqrt_ps(_mm256_fmadd_ps(nrm[0], nrm[0], _mm256_fmadd_ps(nrm[1], nrm[1], _mm256_mul_ps(nrm[2], nrm[2]))));
-                let dot = _mm256_fmadd_ps(nrm[0], light_dir[0], _mm256_fmadd_ps(nrm[1], light_dir[1], _mm256_mul_ps(nrm[2], light_dir[2])));
-                let cos = _mm256_max_ps(_mm256_div_ps(dot, _mm256_blendv_ps(one, len, lit)), zero);
-                light = _mm256_blendv_ps(ambient, _mm256_fmadd_ps(diffuse, cos, ambient), lit);
-            }
+            let light = if directional { lit_by(&texel, &light_dir, ambient, diffuse) } else { ambient };
             // The midpoint rule (every segment of a plain frame, the shorter
             // end segments of a pre-integrated one): optical depth and colour.
             let midpoint = |seg: __m256| -> (__m256, [__m256; 3]) {

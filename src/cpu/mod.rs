@@ -10,13 +10,15 @@
 //! emission–absorption (plain, pre-integrated or refined), absorption and
 //! emission marched front to back, exponential opacity correction, no
 //! light or a directional one lighting from normals (or gradients) held in
-//! the texels, with or without jitter, skipping and uniform runs, and the
-//! maximum, minimum and average intensity projections (`projection`),
-//! from a volume held in one texture. Everything else stays on the GPU
+//! the texels, with or without jitter, skipping and uniform runs, the
+//! maximum, minimum and average intensity projections (`projection`) and
+//! the isosurface (`isosurface`), from a volume held in one texture. Everything else stays on the GPU
 //! path, whose images these match (tests/test_native_march.py).
 
 #[cfg(target_arch = "x86_64")]
 mod avx2;
+#[cfg(target_arch = "x86_64")]
+mod isosurface;
 #[cfg(target_arch = "x86_64")]
 mod projection;
 #[cfg(target_arch = "x86_64")]
@@ -78,6 +80,8 @@ pub enum Model {
     MinIp,
     /// Of the mean, weighted by length.
     Average,
+    /// The first point at or above the iso value, shaded (`isosurface`).
+    Isosurface,
 }
 
 impl Model {
@@ -159,14 +163,35 @@ impl Image {
     }
 }
 
+/// The depth image's pointer, shared as the image's is.
+struct Depths(*mut f32);
+unsafe impl Sync for Depths {}
+
+impl Depths {
+    /// # Safety
+    /// As `Image::write`.
+    unsafe fn write(&self, i: usize, d: f32) {
+        unsafe { *self.0.add(i) = d };
+    }
+}
+
 /// Renders the frame into `out` (width * height premultiplied RGBA, row 0
-/// at the bottom) on every core. The calling thread asks `stop` about every
+/// at the bottom) on every core, and an isosurface's hit distances into
+/// `depth` (one a pixel; infinity on a miss), where given. The calling thread asks `stop` about every
 /// 10 ms while the workers march (each ray checks for a stop every 1024
 /// steps), so a frame of any length can be interrupted. Needs `available()`.
-pub fn render(frame: &Frame, out: &mut [[f32; 4]], stop: &mut dyn FnMut() -> bool) -> Result<Stats, Interrupted> {
+pub fn render(
+    frame: &Frame,
+    out: &mut [[f32; 4]],
+    mut depth: Option<&mut [f32]>,
+    stop: &mut dyn FnMut() -> bool,
+) -> Result<Stats, Interrupted> {
     let p = frame.params;
     let (w, h) = (p.width as usize, p.height as usize);
     assert_eq!(out.len(), w * h, "output size");
+    if let Some(d) = &depth {
+        assert_eq!(d.len(), w * h, "depth size");
+    }
     assert!(available(), "the native march needs AVX2 and FMA");
     assert!(p.max_steps <= MAX_STEPS, "the native march takes at most {MAX_STEPS} steps a ray");
     if let Some((codes, dims)) = frame.cells {
@@ -187,6 +212,7 @@ pub fn render(frame: &Frame, out: &mut [[f32; 4]], stop: &mut dyn FnMut() -> boo
     let next = AtomicUsize::new(0);
     let halt = AtomicBool::new(false);
     let image = Image(out.as_mut_ptr());
+    let depth_image = depth.as_mut().map(|d| Depths(d.as_mut_ptr()));
     let work = || -> Stats {
         let mut stats = Stats::default();
         loop {
@@ -197,12 +223,17 @@ pub fn render(frame: &Frame, out: &mut [[f32; 4]], stop: &mut dyn FnMut() -> boo
             let (x0, y0) = ((tile % tiles_x) * TILE, (tile / tiles_x) * TILE);
             for row in y0..(y0 + TILE).min(h) {
                 let mut rgba = [[0f32; 4]; TILE];
-                let s = march_row(frame, x0 as u32, row as u32, &mut rgba, &halt);
+                let mut dist = [f32::INFINITY; TILE];
+                let s = march_row(frame, x0 as u32, row as u32, &mut rgba, &mut dist, &halt);
                 stats.samples += s.samples;
                 stats.truncated_needed = stats.truncated_needed.max(s.truncated_needed);
                 for (l, c) in rgba.into_iter().enumerate().take(w - x0) {
                     // SAFETY: each pixel lies in one tile, taken by one worker.
                     unsafe { image.write(row * w + x0 + l, c) };
+                    if let Some(d) = &depth_image {
+                        // SAFETY: as for the image.
+                        unsafe { d.write(row * w + x0 + l, dist[l]) };
+                    }
                 }
             }
         }
@@ -272,12 +303,27 @@ fn set_flush_to_zero() {
 pub const MAX_STEPS: u32 = 1 << 30;
 
 /// Eight pixels of one row from column `col0` (those past the image's
-/// right edge are left transparent).
-fn march_row(frame: &Frame, col0: u32, row: u32, out: &mut [[f32; 4]; TILE], halt: &AtomicBool) -> Stats {
+/// right edge are left transparent), and an isosurface's hit distances.
+fn march_row(
+    frame: &Frame,
+    col0: u32,
+    row: u32,
+    out: &mut [[f32; 4]; TILE],
+    depth: &mut [f32; TILE],
+    halt: &AtomicBool,
+) -> Stats {
     #[cfg(target_arch = "x86_64")]
     {
         // SAFETY: `render` checked AVX2 and FMA and the paddings.
         unsafe {
+            if frame.model == Model::Isosurface {
+                return match &frame.volume.texels {
+                    Texels::Rgba32Float(t) => isosurface::iso(frame, &avx2::Rgba32Float(t), col0, row, out, depth, halt),
+                    Texels::Rgba16Snorm(t) => isosurface::iso(frame, &avx2::Rgba16Snorm(t), col0, row, out, depth, halt),
+                    Texels::R32Float(t) => isosurface::iso(frame, &avx2::R32Float(t), col0, row, out, depth, halt),
+                    Texels::R16Snorm(t) => isosurface::iso(frame, &avx2::R16Snorm(t), col0, row, out, depth, halt),
+                };
+            }
             if frame.model.projects() {
                 return match &frame.volume.texels {
                     Texels::Rgba32Float(t) => projection::project(frame, &avx2::Rgba32Float(t), col0, row, out, halt),
@@ -296,7 +342,7 @@ fn march_row(frame: &Frame, col0: u32, row: u32, out: &mut [[f32; 4]; TILE], hal
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
-        let _ = (frame, col0, row, out, halt);
+        let _ = (frame, col0, row, out, depth, halt);
         unreachable!("available() is false off x86-64")
     }
 }

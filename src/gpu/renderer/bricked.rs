@@ -296,6 +296,7 @@ impl GpuRenderer {
             self.bind_group = None;
         }
         self.depth_ready = false;
+        self.native_depth = None;
         self.brick_frame = Some(BrickFrame {
             camera: *camera,
             light: *light,

@@ -48,6 +48,7 @@ impl GpuRenderer {
         self.update_occupancy(self.occupancy_source(cfg))?;
         let params = self.params(camera, light, cfg)?;
         self.depth_ready = false;
+        self.native_depth = None;
         if self.skip_empty && self.occupancy.empty_fraction == 1.0 && cfg.model.skips_transparent() {
             // Every sample of every ray would have opacity 0.
             out.fill(0.0);
@@ -78,7 +79,8 @@ impl GpuRenderer {
             return false;
         };
         let projects = matches!(variant.model, Model::Mip | Model::MinIp | Model::Average);
-        let integrates = matches!(variant.model, Model::EmissionAbsorption | Model::Absorption | Model::Emission);
+        let integrates =
+            matches!(variant.model, Model::EmissionAbsorption | Model::Absorption | Model::Emission | Model::Isosurface);
         // Projections take neither light nor opacity correction.
         let shading = projects
             || match variant.shading {
@@ -113,8 +115,10 @@ impl GpuRenderer {
             Model::Mip => crate::cpu::Model::Mip,
             Model::MinIp => crate::cpu::Model::MinIp,
             Model::Average => crate::cpu::Model::Average,
+            Model::Isosurface => crate::cpu::Model::Isosurface,
             _ => crate::cpu::Model::EmissionAbsorption,
         };
+        let iso = model == crate::cpu::Model::Isosurface;
         // Projections read every segment (the shader's too): no leaps, no runs.
         let cells = !occ.codes.is_empty() && !model.projects();
         let frame = crate::cpu::Frame {
@@ -126,12 +130,19 @@ impl GpuRenderer {
             lit: variant.shading == Shading::Normals && !model.projects(),
             early_termination: variant.early_termination && !model.projects(),
             jitter: variant.jitter,
-            uniform_runs: variant.uniform_cells && cells,
+            uniform_runs: variant.uniform_cells && cells && !iso,
             model,
             preint: variant.pre_integrated.then_some(&self.tables.preint_texels),
             refine: if variant.pre_integrated { variant.refine } else { 0 },
         };
-        let s = crate::cpu::render(&frame, bytemuck::cast_slice_mut(out), stop).map_err(|_| Error::Interrupted)?;
+        let mut depth = if iso { Some(try_vec(out.len() / 4, f32::INFINITY, "the depth image")?) } else { None };
+        let s = crate::cpu::render(&frame, bytemuck::cast_slice_mut(out), depth.as_deref_mut(), stop)
+            .map_err(|_| Error::Interrupted)?;
+        if iso {
+            self.depth_unit = world_unit(&self.volume.as_ref().expect("checked by native_covers").bounds);
+            self.depth_ready = true;
+            self.native_depth = depth;
+        }
         let stats = FrameStats { truncated_needed: s.truncated_needed, uploaded_bytes: 0, passes: 1, samples: s.samples, native: true };
         Ok(self.finish_frame(stats, 0))
     }
@@ -406,6 +417,9 @@ impl GpuRenderer {
             return Ok(None);
         }
         let unit = self.depth_unit as f32;
+        if let Some(d) = &self.native_depth {
+            return Ok(Some(d.iter().map(|&t| t * unit).collect()));
+        }
         let bytes = self.width as u64 * self.height as u64 * 16;
         let ctx = &self.ctx;
         let staging = ctx.scoped("reading the depth image", || readback_buffer(&ctx.device, "depth readback", bytes))?;

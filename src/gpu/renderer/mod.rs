@@ -115,8 +115,10 @@ pub struct GpuRenderer {
     pub native_march: bool,
     /// The bind group and the filtering it was made for.
     bind_group: Option<(wgpu::BindGroup, bool)>,
-    /// The last frame was an isosurface: its depth is in the ray state.
+    /// The last frame was an isosurface: its depth is in the ray state, or
+    /// in `native_depth` where the native march rendered it.
     depth_ready: bool,
+    native_depth: Option<Vec<f32>>,
     /// World length of the shader's length unit in that frame.
     depth_unit: f64,
     /// Planned samples per second of the last long frame: sizes passes for time.
@@ -204,6 +206,7 @@ impl GpuRenderer {
             native_march: std::env::var("PYVR_NATIVE_MARCH").map_or(true, |v| v != "0"),
             bind_group: None,
             depth_ready: false,
+            native_depth: None,
             depth_unit: 1.0,
             samples_per_second: INITIAL_SAMPLES_PER_SECOND,
             pid: std::process::id(),

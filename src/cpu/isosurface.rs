@@ -1,0 +1,230 @@
+//! The isosurface in the native march (shaders/isosurface.wgsl): eight
+//! rays in the lanes of AVX2 registers test the chord's entry, each
+//! segment's midpoint and its exit for the first value at or above the iso
+//! value (NaN counts as below), leap the cells whose values cannot reach it,
+//! bracket the crossing by bisection, place it by a secant step, and shade
+//! it from the normal held in the texel there.
+
+use super::avx2::{corners, lit_by, voxel_axes, Texels};
+use super::{Frame, Stats, CELL, TILE};
+use crate::gpu::shader::ISO_BISECTIONS;
+use std::arch::x86_64::*;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// Pixels col0..col0 + 8 of `row` of an isosurface frame, and each ray's
+/// hit distance (from the camera, in the box's longest side; infinity on a
+/// miss) in `depth`; stops early (its pixels then are garbage) once `halt`
+/// is set.
+///
+/// # Safety
+/// Needs AVX2 and FMA; `f.cells`, where given, is followed by three
+/// readable bytes, and R16Snorm codes by one (`super::render` checks).
+#[target_feature(enable = "avx2,fma")]
+pub unsafe fn iso<T: Texels>(
+    f: &Frame,
+    tex: &T,
+    col0: u32,
+    row: u32,
+    out: &mut [[f32; 4]; TILE],
+    depth: &mut [f32; TILE],
+    halt: &AtomicBool,
+) -> Stats {
+    let p = f.params;
+    let dims = f.volume.dims;
+    // SAFETY: the caller checked AVX2 and FMA.
+    let rays = unsafe { super::rays8::rays(f, col0, row) };
+    let set = _mm256_set1_ps;
+    let (zero, zi, onei) = (_mm256_setzero_ps(), _mm256_setzero_si256(), _mm256_set1_epi32(1));
+    let as_ps = _mm256_castsi256_ps;
+    let (start, per) = voxel_axes(p, &rays, dims);
+    let h = set(p.step_size);
+    let shift_h = _mm256_mul_ps(rays.shift, h);
+    let first_len = _mm256_min_ps(_mm256_mul_ps(_mm256_add_ps(set(1.0), rays.shift), h), rays.chord);
+    let hi: [__m256i; 3] = dims.map(|d| _mm256_set1_epi32(d as i32 - 1));
+    let stride = tex.strides(dims).map(|s| _mm256_set1_epi32(s));
+    // `value_prescale` is left out: the caller joins a split scale into `value_scale`.
+    let (value_scale, value_offset) = (set(p.value_scale * T::VALUE_UNIT), set(p.value_offset));
+    let iso_value = set(p.iso_value);
+    let texel_at = |at: __m256| -> [__m256; 4] {
+        let u: [__m256; 3] = std::array::from_fn(|k| _mm256_fmadd_ps(per[k], at, start[k]));
+        let (offs, w) = corners(&u, &hi, &stride);
+        // SAFETY: the offsets are clamped into the texture.
+        unsafe { tex.trilinear(&offs, &w) }
+    };
+    let value_at = |at: __m256| _mm256_fmadd_ps(texel_at(at)[0], value_scale, value_offset);
+    // NaN counts as below.
+    let reaches = |v: __m256| _mm256_cmp_ps::<_CMP_GE_OQ>(v, iso_value);
+    // The midpoint of segment i (rays.wgsl `span`: the first one is shorter under jitter).
+    let midpoint = |i: __m256i| -> __m256 {
+        let a = _mm256_fmadd_ps(_mm256_cvtepi32_ps(i), h, shift_h);
+        let before = _mm256_cmp_ps::<_CMP_LT_OQ>(a, zero);
+        let seg = _mm256_blendv_ps(_mm256_max_ps(_mm256_min_ps(h, _mm256_sub_ps(rays.chord, a)), zero), first_len, before);
+        _mm256_fmadd_ps(seg, set(0.5), _mm256_andnot_ps(before, a))
+    };
+    // Cells leapt: the empty radius codes of the cells that cannot reach the iso value.
+    let (radius_grid, grid) = match f.cells {
+        Some((g, d)) if f.skip_empty => (g.as_ptr() as *const i32, d),
+        _ => (std::ptr::null(), [1, 1, 1]),
+    };
+    let n = rays.n;
+    // Rays whose every step was taken test their exit too.
+    let whole = as_ps(_mm256_cmpeq_epi32(n, _mm256_cvttps_epi32(_mm256_min_ps(rays.needed, set(2.0e9)))));
+    let whole = _mm256_and_ps(whole, _mm256_cmp_ps::<_CMP_LT_OQ>(rays.needed, set(2.0e9)));
+
+    // The entry: a ray starting inside the surface hits at 0.
+    let mut taken = _mm256_and_si256(_mm256_castps_si256(rays.hit), onei);
+    let mut prev = zero;
+    let mut prev_v = value_at(zero);
+    let mut prev_known = rays.hit;
+    let mut found = _mm256_and_ps(rays.hit, reaches(prev_v));
+    let mut hit_at = zero;
+    let mut i = zi;
+    // Lanes still marching: their ray exists, has not hit, and has points left.
+    let mut going = _mm256_andnot_ps(found, rays.hit);
+    let mut steps = 0u32;
+    loop {
+        // Segment i's midpoint while i < n; the exit at i == n for a whole ray.
+        let inside = as_ps(_mm256_cmpgt_epi32(n, i));
+        let exit = _mm256_and_ps(whole, as_ps(_mm256_cmpeq_epi32(i, n)));
+        going = _mm256_and_ps(going, _mm256_or_ps(inside, exit));
+        if _mm256_movemask_ps(going) == 0 {
+            break;
+        }
+        steps = steps.wrapping_add(1);
+        if steps % 1024 == 0 && halt.load(Ordering::Relaxed) {
+            break;
+        }
+        let at = _mm256_blendv_ps(rays.chord, midpoint(i), inside);
+        i = _mm256_sub_epi32(i, _mm256_castps_si256(going));
+        let v = value_at(at);
+        taken = _mm256_sub_epi32(taken, _mm256_castps_si256(going));
+        let hits = _mm256_and_ps(going, reaches(v));
+        if _mm256_movemask_ps(hits) != 0 {
+            // The bracket's lower end, read now where a leap left it unread.
+            let unread = _mm256_andnot_ps(prev_known, hits);
+            if _mm256_movemask_ps(unread) != 0 {
+                prev_v = _mm256_blendv_ps(prev_v, value_at(prev), unread);
+                taken = _mm256_sub_epi32(taken, _mm256_castps_si256(unread));
+            }
+            // isosurface.wgsl `locate_crossing`.
+            let (mut lo, mut up, mut vlo, mut vup) = (prev, at, prev_v, v);
+            for _ in 0..ISO_BISECTIONS {
+                let m = _mm256_mul_ps(set(0.5), _mm256_add_ps(lo, up));
+                let vm = value_at(m);
+                let above = reaches(vm);
+                lo = _mm256_blendv_ps(m, lo, above);
+                vlo = _mm256_blendv_ps(vm, vlo, above);
+                up = _mm256_blendv_ps(up, m, above);
+                vup = _mm256_blendv_ps(vup, vm, above);
+            }
+            taken = _mm256_add_epi32(taken, _mm256_and_si256(_mm256_castps_si256(hits), _mm256_set1_epi32(ISO_BISECTIONS as i32)));
+            let t = _mm256_min_ps(_mm256_max_ps(_mm256_div_ps(_mm256_sub_ps(iso_value, vlo), _mm256_sub_ps(vup, vlo)), zero), set(1.0));
+            let secant = _mm256_and_ps(_mm256_cmp_ps::<_CMP_ORD_Q>(vlo, vlo), _mm256_cmp_ps::<_CMP_GT_OQ>(vup, vlo));
+            let placed = _mm256_blendv_ps(up, _mm256_fmadd_ps(_mm256_sub_ps(up, lo), t, lo), secant);
+            hit_at = _mm256_blendv_ps(hit_at, placed, hits);
+            found = _mm256_or_ps(found, hits);
+            going = _mm256_andnot_ps(hits, going);
+        }
+        let below = _mm256_andnot_ps(hits, going);
+        prev = _mm256_blendv_ps(prev, at, below);
+        prev_v = _mm256_blendv_ps(prev_v, v, below);
+        prev_known = _mm256_or_ps(prev_known, below);
+        if !radius_grid.is_null() {
+            // isosurface.wgsl `iso_leap`: from a point below the iso value in
+            // an empty cube, to the first midpoint past it, keeping the last
+            // midpoint inside as the bracket's (unread) lower end.
+            let may = _mm256_and_ps(below, as_ps(_mm256_cmpgt_epi32(_mm256_add_epi32(n, onei), i)));
+            if _mm256_movemask_ps(may) != 0 {
+                let uc: [__m256; 3] =
+                    std::array::from_fn(|k| _mm256_add_ps(_mm256_fmadd_ps(per[k], at, start[k]), set(0.5 - p.border as f32)));
+                let c: [__m256i; 3] = std::array::from_fn(|k| {
+                    let ci = _mm256_cvttps_epi32(_mm256_floor_ps(_mm256_mul_ps(uc[k], set(1.0 / CELL))));
+                    _mm256_min_epi32(_mm256_max_epi32(ci, zi), _mm256_set1_epi32(grid[k] as i32 - 1))
+                });
+                let strides = [(grid[1] * grid[2]) as i32, grid[2] as i32, 1];
+                let cell = (0..3).fold(zi, |a, k| _mm256_add_epi32(a, _mm256_mullo_epi32(c[k], _mm256_set1_epi32(strides[k]))));
+                // SAFETY: c is clamped into the grid, whose codes are followed by three bytes.
+                let code = unsafe { _mm256_i32gather_epi32::<1>(radius_grid, cell) };
+                let radius = _mm256_and_si256(code, _mm256_set1_epi32(0xff));
+                let flagged = _mm256_cmpgt_epi32(radius, _mm256_set1_epi32(crate::occupancy::UNIFORM_FLAG as i32 - 1));
+                let radius = _mm256_andnot_si256(flagged, radius);
+                let empty = _mm256_and_ps(may, as_ps(_mm256_cmpgt_epi32(radius, zi)));
+                if _mm256_movemask_ps(empty) != 0 {
+                    // skipping.wgsl `exit_of_cube`.
+                    let mut exit = set(3.0e38);
+                    for k in 0..3 {
+                        let moving = _mm256_cmp_ps::<_CMP_NEQ_OQ>(per[k], zero);
+                        let ahead = _mm256_cmp_ps::<_CMP_GT_OQ>(per[k], zero);
+                        let lo = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_sub_epi32(c[k], _mm256_sub_epi32(radius, onei))), set(CELL));
+                        let up = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_add_epi32(c[k], radius)), set(CELL));
+                        let inv = _mm256_div_ps(set(1.0), _mm256_blendv_ps(set(1.0), per[k], moving));
+                        let tk = _mm256_mul_ps(_mm256_sub_ps(_mm256_blendv_ps(lo, up, ahead), uc[k]), inv);
+                        exit = _mm256_min_ps(exit, _mm256_blendv_ps(set(3.0e38), tk, moving));
+                    }
+                    let exit = _mm256_max_ps(exit, zero);
+                    let kf = _mm256_ceil_ps(_mm256_sub_ps(
+                        _mm256_sub_ps(_mm256_div_ps(_mm256_add_ps(at, exit), h), set(0.5)),
+                        _mm256_add_ps(rays.shift, set(1e-3)),
+                    ));
+                    let next = _mm256_cvttps_epi32(_mm256_min_ps(_mm256_max_ps(kf, _mm256_cvtepi32_ps(i)), _mm256_cvtepi32_ps(n)));
+                    let leaps = _mm256_and_ps(empty, as_ps(_mm256_cmpgt_epi32(next, i)));
+                    prev = _mm256_blendv_ps(prev, midpoint(_mm256_sub_epi32(next, onei)), leaps);
+                    prev_known = _mm256_andnot_ps(leaps, prev_known);
+                    i = _mm256_castps_si256(_mm256_blendv_ps(as_ps(i), as_ps(next), leaps));
+                }
+            }
+        }
+    }
+
+    // isosurface.wgsl `shade_hit`: the table's colour at the iso value, lit at the hit.
+    let light = if f.lit && p.light_valid == 1 {
+        let light_dir: [__m256; 3] = std::array::from_fn(|k| set(p.light_dir[k]));
+        lit_by(&texel_at(hit_at), &light_dir, set(p.ambient), set(p.diffuse))
+    } else {
+        set(p.ambient)
+    };
+    let lanes = |x: __m256| -> [f32; 8] {
+        let mut l = [0f32; 8];
+        // SAFETY: an unaligned store of eight floats into eight.
+        unsafe { _mm256_storeu_ps(l.as_mut_ptr(), x) };
+        l
+    };
+    let (found, light, hit_at, t0, needed) = (lanes(found), lanes(light), lanes(hit_at), lanes(rays.t0), lanes(rays.needed));
+    let (mut counts, mut steps_n) = ([0i32; 8], [0i32; 8]);
+    // SAFETY: unaligned stores of eight integers into eight.
+    unsafe {
+        _mm256_storeu_si256(counts.as_mut_ptr() as *mut __m256i, taken);
+        _mm256_storeu_si256(steps_n.as_mut_ptr() as *mut __m256i, rays.n);
+    }
+    let c = lut_entry(f.lut, p.iso_value);
+    let hits = _mm256_movemask_ps(rays.hit);
+    let mut stats = Stats::default();
+    for l in 0..TILE {
+        out[l] = [0.0; 4];
+        depth[l] = f32::INFINITY;
+        if hits & (1 << l) == 0 {
+            continue;
+        }
+        stats.samples += counts[l] as u64;
+        if found[l].to_bits() == 0 {
+            // (`as u32` saturates, as the scalar rule's conversion does.)
+            let needed = needed[l] as u32;
+            if (steps_n[l] as u32) < needed {
+                stats.truncated_needed = stats.truncated_needed.max(needed);
+            }
+            continue;
+        }
+        out[l] = [c[0] * light[l], c[1] * light[l], c[2] * light[l], 1.0];
+        depth[l] = t0[l] + hit_at[l];
+    }
+    stats
+}
+
+/// The transfer function's entry for `v` (sampling.wgsl `eval_lut`).
+fn lut_entry(lut: &[[f32; 4]], v: f32) -> [f32; 4] {
+    let m = lut.len();
+    let x = v.clamp(0.0, 1.0) * (m - 1) as f32;
+    let k = (x as usize).min(m - 2);
+    let t = x - k as f32;
+    std::array::from_fn(|c| (lut[k + 1][c] - lut[k][c]).mul_add(t, lut[k][c]))
+}
