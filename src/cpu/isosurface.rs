@@ -117,8 +117,10 @@ pub unsafe fn iso<T: Texels>(
                 up = _mm256_blendv_ps(up, m, above);
                 vup = _mm256_blendv_ps(vup, vm, above);
             }
-            taken = _mm256_add_epi32(taken, _mm256_and_si256(_mm256_castps_si256(hits), _mm256_set1_epi32(ISO_BISECTIONS as i32)));
-            let t = _mm256_min_ps(_mm256_max_ps(_mm256_div_ps(_mm256_sub_ps(iso_value, vlo), _mm256_sub_ps(vup, vlo)), zero), set(1.0));
+            let bisections = _mm256_set1_epi32(ISO_BISECTIONS as i32);
+            taken = _mm256_add_epi32(taken, _mm256_and_si256(_mm256_castps_si256(hits), bisections));
+            let t = _mm256_div_ps(_mm256_sub_ps(iso_value, vlo), _mm256_sub_ps(vup, vlo));
+            let t = _mm256_min_ps(_mm256_max_ps(t, zero), set(1.0));
             let secant = _mm256_and_ps(_mm256_cmp_ps::<_CMP_ORD_Q>(vlo, vlo), _mm256_cmp_ps::<_CMP_GT_OQ>(vup, vlo));
             let placed = _mm256_blendv_ps(up, _mm256_fmadd_ps(_mm256_sub_ps(up, lo), t, lo), secant);
             hit_at = _mm256_blendv_ps(hit_at, placed, hits);
@@ -135,14 +137,15 @@ pub unsafe fn iso<T: Texels>(
             // midpoint inside as the bracket's (unread) lower end.
             let may = _mm256_and_ps(below, as_ps(_mm256_cmpgt_epi32(_mm256_add_epi32(n, onei), i)));
             if _mm256_movemask_ps(may) != 0 {
-                let uc: [__m256; 3] =
-                    std::array::from_fn(|k| _mm256_add_ps(_mm256_fmadd_ps(per[k], at, start[k]), set(0.5 - p.border as f32)));
+                let border = set(0.5 - p.border as f32);
+                let uc: [__m256; 3] = std::array::from_fn(|k| _mm256_add_ps(_mm256_fmadd_ps(per[k], at, start[k]), border));
                 let c: [__m256i; 3] = std::array::from_fn(|k| {
                     let ci = _mm256_cvttps_epi32(_mm256_floor_ps(_mm256_mul_ps(uc[k], set(1.0 / CELL))));
                     _mm256_min_epi32(_mm256_max_epi32(ci, zi), _mm256_set1_epi32(grid[k] as i32 - 1))
                 });
                 let strides = [(grid[1] * grid[2]) as i32, grid[2] as i32, 1];
-                let cell = (0..3).fold(zi, |a, k| _mm256_add_epi32(a, _mm256_mullo_epi32(c[k], _mm256_set1_epi32(strides[k]))));
+                let cell =
+                    (0..3).fold(zi, |a, k| _mm256_add_epi32(a, _mm256_mullo_epi32(c[k], _mm256_set1_epi32(strides[k]))));
                 // SAFETY: c is clamped into the grid, whose codes are followed by three bytes.
                 let code = unsafe { _mm256_i32gather_epi32::<1>(radius_grid, cell) };
                 let radius = _mm256_and_si256(code, _mm256_set1_epi32(0xff));
@@ -155,7 +158,8 @@ pub unsafe fn iso<T: Texels>(
                     for k in 0..3 {
                         let moving = _mm256_cmp_ps::<_CMP_NEQ_OQ>(per[k], zero);
                         let ahead = _mm256_cmp_ps::<_CMP_GT_OQ>(per[k], zero);
-                        let lo = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_sub_epi32(c[k], _mm256_sub_epi32(radius, onei))), set(CELL));
+                        let first = _mm256_sub_epi32(c[k], _mm256_sub_epi32(radius, onei));
+                        let lo = _mm256_mul_ps(_mm256_cvtepi32_ps(first), set(CELL));
                         let up = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_add_epi32(c[k], radius)), set(CELL));
                         let inv = _mm256_div_ps(set(1.0), _mm256_blendv_ps(set(1.0), per[k], moving));
                         let tk = _mm256_mul_ps(_mm256_sub_ps(_mm256_blendv_ps(lo, up, ahead), uc[k]), inv);
@@ -166,7 +170,8 @@ pub unsafe fn iso<T: Texels>(
                         _mm256_sub_ps(_mm256_div_ps(_mm256_add_ps(at, exit), h), set(0.5)),
                         _mm256_add_ps(rays.shift, set(1e-3)),
                     ));
-                    let next = _mm256_cvttps_epi32(_mm256_min_ps(_mm256_max_ps(kf, _mm256_cvtepi32_ps(i)), _mm256_cvtepi32_ps(n)));
+                    let kf = _mm256_min_ps(_mm256_max_ps(kf, _mm256_cvtepi32_ps(i)), _mm256_cvtepi32_ps(n));
+                    let next = _mm256_cvttps_epi32(kf);
                     let leaps = _mm256_and_ps(empty, as_ps(_mm256_cmpgt_epi32(next, i)));
                     prev = _mm256_blendv_ps(prev, midpoint(_mm256_sub_epi32(next, onei)), leaps);
                     prev_known = _mm256_andnot_ps(leaps, prev_known);
@@ -189,7 +194,8 @@ pub unsafe fn iso<T: Texels>(
         unsafe { _mm256_storeu_ps(l.as_mut_ptr(), x) };
         l
     };
-    let (found, light, hit_at, t0, needed) = (lanes(found), lanes(light), lanes(hit_at), lanes(rays.t0), lanes(rays.needed));
+    let (found, light, hit_at) = (lanes(found), lanes(light), lanes(hit_at));
+    let (t0, needed) = (lanes(rays.t0), lanes(rays.needed));
     let (mut counts, mut steps_n) = ([0i32; 8], [0i32; 8]);
     // SAFETY: unaligned stores of eight integers into eight.
     unsafe {

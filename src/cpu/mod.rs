@@ -12,8 +12,9 @@
 //! light or a directional one lighting from normals (or gradients) held in
 //! the texels, with or without jitter, skipping and uniform runs, the
 //! maximum, minimum and average intensity projections (`projection`) and
-//! the isosurface (`isosurface`), from a volume held in one texture. Everything else stays on the GPU
-//! path, whose images these match (tests/test_native_march.py).
+//! the isosurface (`isosurface`), from a volume held in one texture.
+//! Everything else stays on the GPU path, whose images these match
+//! (tests/test_native_march.py).
 
 #[cfg(target_arch = "x86_64")]
 mod avx2;
@@ -177,9 +178,10 @@ impl Depths {
 
 /// Renders the frame into `out` (width * height premultiplied RGBA, row 0
 /// at the bottom) on every core, and an isosurface's hit distances into
-/// `depth` (one a pixel; infinity on a miss), where given. The calling thread asks `stop` about every
-/// 10 ms while the workers march (each ray checks for a stop every 1024
-/// steps), so a frame of any length can be interrupted. Needs `available()`.
+/// `depth` (one a pixel; infinity on a miss), where given. The calling
+/// thread asks `stop` about every 10 ms while the workers march (each ray
+/// checks for a stop every 1024 steps), so a frame of any length can be
+/// interrupted. Needs `available()`.
 pub fn render(
     frame: &Frame,
     out: &mut [[f32; 4]],

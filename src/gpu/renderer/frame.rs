@@ -79,9 +79,9 @@ impl GpuRenderer {
             return false;
         };
         let projects = matches!(variant.model, Model::Mip | Model::MinIp | Model::Average);
-        let integrates =
-            matches!(variant.model, Model::EmissionAbsorption | Model::Absorption | Model::Emission | Model::Isosurface);
-        // Projections take neither light nor opacity correction.
+        let iso = variant.model == Model::Isosurface;
+        let composites = matches!(variant.model, Model::EmissionAbsorption | Model::Absorption | Model::Emission);
+        // Projections take no light; neither they nor the isosurface take opacity correction.
         let shading = projects
             || match variant.shading {
                 Shading::AmbientOnly => true,
@@ -90,12 +90,12 @@ impl GpuRenderer {
             };
         self.native_march
             && shading
-            && (projects || integrates)
+            && (projects || iso || composites)
             && !variant.back_to_front
             && (!variant.pre_integrated || variant.model == Model::EmissionAbsorption)
             && !variant.unbiased
             && (projects || !variant.point_light)
-            && (projects || variant.correction == OpacityCorrection::Exponential)
+            && (projects || iso || variant.correction == OpacityCorrection::Exponential)
             && self.tables.rows.len() >= 2
             && cfg.max_steps <= crate::cpu::MAX_STEPS as i64
     }
