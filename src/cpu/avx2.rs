@@ -230,6 +230,27 @@ pub(super) fn lit_by(texel: &[__m256; 4], light_dir: &[__m256; 3], ambient: __m2
     _mm256_blendv_ps(ambient, _mm256_fmadd_ps(diffuse, cos, ambient), lit)
 }
 
+/// The unit direction a point light at `light_pos` travels at ray
+/// parameter `at` past the chords' start, and where it is defined (away
+/// from the light itself): sampling.wgsl `direction_and_length`, scaled by
+/// the largest component first so that no length overflows.
+#[inline]
+#[target_feature(enable = "avx2,fma")]
+pub(super) fn point_light_travel(p: &Params, rays: &super::rays8::Rays, at: __m256) -> ([__m256; 3], __m256) {
+    let set = _mm256_set1_ps;
+    let t = _mm256_add_ps(rays.t0, at);
+    let v: [__m256; 3] =
+        std::array::from_fn(|k| _mm256_sub_ps(_mm256_fmadd_ps(rays.d[k], t, set(p.cam_pos[k])), set(p.light_pos[k])));
+    let m = _mm256_max_ps(_mm256_max_ps(abs(v[0]), abs(v[1])), abs(v[2]));
+    let defined = _mm256_cmp_ps::<_CMP_GT_OQ>(m, _mm256_setzero_ps());
+    let huge = _mm256_cmp_ps::<_CMP_GT_OQ>(m, set(1.0e30));
+    let s = _mm256_blendv_ps(set(1.0), set(5.421010862e-20), huge);
+    let ms = _mm256_mul_ps(_mm256_blendv_ps(set(1.0), m, defined), s);
+    let u: [__m256; 3] = std::array::from_fn(|k| _mm256_div_ps(_mm256_mul_ps(v[k], s), ms));
+    let l = _mm256_sqrt_ps(_mm256_fmadd_ps(u[0], u[0], _mm256_fmadd_ps(u[1], u[1], _mm256_mul_ps(u[2], u[2]))));
+    (std::array::from_fn(|k| _mm256_div_ps(u[k], l)), defined)
+}
+
 /// Cell-centred voxel coordinates along each numpy axis at the chords'
 /// start, and per unit of ray parameter.
 #[inline]
@@ -320,7 +341,8 @@ pub unsafe fn march<T: Texels>(
     let seg_unit = _mm256_set1_ps(p.inv_ref);
     let light_dir: [__m256; 3] = std::array::from_fn(|k| _mm256_set1_ps(p.light_dir[k]));
     let (ambient, diffuse) = (_mm256_set1_ps(p.ambient), _mm256_set1_ps(p.diffuse));
-    let directional = f.lit && p.light_valid == 1;
+    let directional = f.lit && !f.point_light && p.light_valid == 1;
+    let point = f.lit && f.point_light;
     let threshold = _mm256_set1_ps(p.threshold);
     let cell = _mm256_set1_ps(1.0 / CELL);
     let border = _mm256_set1_ps(0.5 - p.border as f32);
@@ -600,7 +622,14 @@ pub unsafe fn march<T: Texels>(
             // NaN reads as value 0 and opacity 0.
             let v = _mm256_fmadd_ps(texel[0], value_scale, value_offset);
             let valid = _mm256_cmp_ps::<_CMP_ORD_Q>(v, v);
-            let light = if directional { lit_by(&texel, &light_dir, ambient, diffuse) } else { ambient };
+            let light = if directional {
+                lit_by(&texel, &light_dir, ambient, diffuse)
+            } else if point {
+                let (travel, defined) = point_light_travel(p, &rays, at);
+                _mm256_blendv_ps(ambient, lit_by(&texel, &travel, ambient, diffuse), defined)
+            } else {
+                ambient
+            };
             // The midpoint rule (every segment of a plain frame, the shorter
             // end segments of a pre-integrated one): optical depth and colour.
             let midpoint = |seg: __m256| -> (__m256, [__m256; 3]) {

@@ -3,9 +3,10 @@
 //! segment's midpoint and its exit for the first value at or above the iso
 //! value (NaN counts as below), leap the cells whose values cannot reach it,
 //! bracket the crossing by bisection, place it by a secant step, and shade
-//! it from the normal held in the texel there.
+//! it from the normal held in the texel there (under a directional or a
+//! point light).
 
-use super::avx2::{corners, lit_by, voxel_axes, Texels};
+use super::avx2::{corners, lit_by, point_light_travel, voxel_axes, Texels};
 use super::{Frame, Stats, CELL, TILE};
 use crate::gpu::shader::ISO_BISECTIONS;
 use std::arch::x86_64::*;
@@ -182,7 +183,10 @@ pub unsafe fn iso<T: Texels>(
     }
 
     // isosurface.wgsl `shade_hit`: the table's colour at the iso value, lit at the hit.
-    let light = if f.lit && p.light_valid == 1 {
+    let light = if f.lit && f.point_light {
+        let (travel, defined) = point_light_travel(p, &rays, hit_at);
+        _mm256_blendv_ps(set(p.ambient), lit_by(&texel_at(hit_at), &travel, set(p.ambient), set(p.diffuse)), defined)
+    } else if f.lit && p.light_valid == 1 {
         let light_dir: [__m256; 3] = std::array::from_fn(|k| set(p.light_dir[k]));
         lit_by(&texel_at(hit_at), &light_dir, set(p.ambient), set(p.diffuse))
     } else {

@@ -9,8 +9,8 @@
 //! one 64-bit gather. It covers the frames most CPU-only users render:
 //! emission–absorption (plain, pre-integrated or refined), absorption and
 //! emission marched front to back, exponential opacity correction, no
-//! light or a directional one lighting from normals (or gradients) held in
-//! the texels, with or without jitter, skipping and uniform runs, the
+//! light or a directional or point one lighting from normals (or
+//! gradients) held in the texels, with or without jitter, skipping and uniform runs, the
 //! maximum, minimum and average intensity projections (`projection`) and
 //! the isosurface (`isosurface`), from a volume held in one texture.
 //! Everything else stays on the GPU path, whose images these match
@@ -108,6 +108,9 @@ pub struct Frame<'a> {
     pub skip_empty: bool,
     /// The texels' normals light the samples (else ambient light only).
     pub lit: bool,
+    /// With `lit`: the light is a point light at `params.light_pos` (else
+    /// directional, along `params.light_dir`).
+    pub point_light: bool,
     pub early_termination: bool,
     pub jitter: bool,
     /// Composite a run of segments through a cube of uniform cells as one

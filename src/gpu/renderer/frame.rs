@@ -94,7 +94,6 @@ impl GpuRenderer {
             && !variant.back_to_front
             && (!variant.pre_integrated || variant.model == Model::EmissionAbsorption)
             && !variant.unbiased
-            && (projects || !variant.point_light)
             && (projects || iso || variant.correction == OpacityCorrection::Exponential)
             && self.tables.rows.len() >= 2
             && cfg.max_steps <= crate::cpu::MAX_STEPS as i64
@@ -128,6 +127,7 @@ impl GpuRenderer {
             cells: cells.then_some((&occ.codes[..], occ.dims)),
             skip_empty: variant.skip_empty && cells,
             lit: variant.shading == Shading::Normals && !model.projects(),
+            point_light: variant.point_light,
             early_termination: variant.early_termination && !model.projects(),
             jitter: variant.jitter,
             uniform_runs: variant.uniform_cells && cells && !iso,
