@@ -213,6 +213,26 @@ fn one_minus_exp_neg(x: __m256) -> __m256 {
     _mm256_blendv_ps(full, series, _mm256_cmp_ps::<_CMP_LT_OQ>(x, _mm256_set1_ps(1e-3)))
 }
 
+/// The eight lanes of a register.
+#[inline]
+#[target_feature(enable = "avx2,fma")]
+pub(super) fn lanes(x: __m256) -> [f32; 8] {
+    let mut out = [0f32; 8];
+    // SAFETY: an unaligned store of eight floats into eight.
+    unsafe { _mm256_storeu_ps(out.as_mut_ptr(), x) };
+    out
+}
+
+/// The eight lanes of an integer register.
+#[inline]
+#[target_feature(enable = "avx2,fma")]
+pub(super) fn int_lanes(x: __m256i) -> [i32; 8] {
+    let mut out = [0i32; 8];
+    // SAFETY: an unaligned store of eight integers into eight.
+    unsafe { _mm256_storeu_si256(out.as_mut_ptr() as *mut __m256i, x) };
+    out
+}
+
 /// The light at a texel lit from its normal (texel[1..4], any length) by a
 /// directional light travelling along `light_dir` (lighting.wgsl
 /// `light_intensity`): ambient where the normal is zero.
@@ -249,6 +269,37 @@ pub(super) fn point_light_travel(p: &Params, rays: &super::rays8::Rays, at: __m2
     let u: [__m256; 3] = std::array::from_fn(|k| _mm256_div_ps(_mm256_mul_ps(v[k], s), ms));
     let l = _mm256_sqrt_ps(_mm256_fmadd_ps(u[0], u[0], _mm256_fmadd_ps(u[1], u[1], _mm256_mul_ps(u[2], u[2]))));
     (std::array::from_fn(|k| _mm256_div_ps(u[k], l)), defined)
+}
+
+/// The segment grid of eight rays (rays.wgsl `span`): segment i starts
+/// i + shift steps past the chord's start (the first one at the start,
+/// shorter under jitter) and ends a step later or at the chord's end.
+pub(super) struct Spans {
+    h: __m256,
+    shift_h: __m256,
+    first_len: __m256,
+    chord: __m256,
+}
+
+impl Spans {
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    pub(super) fn new(p: &Params, rays: &super::rays8::Rays) -> Spans {
+        let h = _mm256_set1_ps(p.step_size);
+        let first_len = _mm256_min_ps(_mm256_mul_ps(_mm256_add_ps(_mm256_set1_ps(1.0), rays.shift), h), rays.chord);
+        Spans { h, shift_h: _mm256_mul_ps(rays.shift, h), first_len, chord: rays.chord }
+    }
+
+    /// Segment i's start and length (0 past the chord).
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    pub(super) fn span(&self, i: __m256i) -> (__m256, __m256) {
+        let zero = _mm256_setzero_ps();
+        let a = _mm256_fmadd_ps(_mm256_cvtepi32_ps(i), self.h, self.shift_h);
+        let before = _mm256_cmp_ps::<_CMP_LT_OQ>(a, zero);
+        let len = _mm256_max_ps(_mm256_min_ps(self.h, _mm256_sub_ps(self.chord, a)), zero);
+        (_mm256_andnot_ps(before, a), _mm256_blendv_ps(len, self.first_len, before))
+    }
 }
 
 /// Cell-centred voxel coordinates along each numpy axis at the chords'
@@ -320,14 +371,13 @@ pub unsafe fn march<T: Texels>(
         _mm256_max_ps(abs(per[0]), _mm256_max_ps(abs(per[1]), abs(per[2]))),
     );
     let prefetch = prefetches(&rays, &per, T::UNIT_BYTES * T::PER_TEXEL, dims);
-    let (shift, chord, n, limit) = (rays.shift, rays.chord, rays.n, rays.hi);
+    let (shift, n, limit) = (rays.shift, rays.n, rays.hi);
     let mut i = rays.lo;
 
     let (zero, one) = (_mm256_setzero_ps(), _mm256_set1_ps(1.0));
     let (zi, onei) = (_mm256_setzero_si256(), _mm256_set1_epi32(1));
     let h = _mm256_set1_ps(p.step_size);
-    let shift_h = _mm256_mul_ps(shift, h);
-    let first_len = _mm256_min_ps(_mm256_mul_ps(_mm256_add_ps(one, shift), h), chord);
+    let spans = Spans::new(p, &rays);
     let hi: [__m256i; 3] = dims.map(|d| _mm256_set1_epi32(d as i32 - 1));
     let stride = tex.strides(dims).map(|s| _mm256_set1_epi32(s));
     // `value_prescale` is left out: the caller joins a split scale into
@@ -465,11 +515,7 @@ pub unsafe fn march<T: Texels>(
             break;
         }
         taken = _mm256_sub_epi32(taken, _mm256_castps_si256(active));
-        // The segment (rays.wgsl `span`): the first one is shorter under jitter.
-        let a = _mm256_fmadd_ps(_mm256_cvtepi32_ps(i), h, shift_h);
-        let before = _mm256_cmp_ps::<_CMP_LT_OQ>(a, zero);
-        let start_at = _mm256_andnot_ps(before, a);
-        let seg = _mm256_blendv_ps(_mm256_max_ps(_mm256_min_ps(h, _mm256_sub_ps(chord, a)), zero), first_len, before);
+        let (start_at, seg) = spans.span(i);
         let mid = _mm256_fmadd_ps(seg, _mm256_set1_ps(0.5), start_at);
         let mut again = zero;
         let coords = |at: __m256| -> [__m256; 3] { std::array::from_fn(|k| _mm256_fmadd_ps(per[k], at, start[k])) };
@@ -839,12 +885,6 @@ fn prefetches(rays: &super::rays8::Rays, per: &[__m256; 3], texel_bytes: usize, 
     let hits = _mm256_movemask_ps(rays.hit);
     let Some(l) = (0..TILE - 1).find(|l| hits & (3 << l) == 3 << l) else {
         return false;
-    };
-    let lanes = |x: __m256| -> [f32; 8] {
-        let mut out = [0f32; 8];
-        // SAFETY: an unaligned store of eight floats into eight.
-        unsafe { _mm256_storeu_ps(out.as_mut_ptr(), x) };
-        out
     };
     let apart = per.iter().map(|&p| lanes(p)).map(|p| (p[l + 1] - p[l]).powi(2)).sum::<f32>().sqrt();
     let (t0, chord) = (lanes(rays.t0), lanes(rays.chord));

@@ -6,7 +6,7 @@
 //! it from the normal held in the texel there (under a directional or a
 //! point light).
 
-use super::avx2::{corners, lit_by, point_light_travel, voxel_axes, Texels};
+use super::avx2::{corners, int_lanes, lanes, lit_by, point_light_travel, voxel_axes, Spans, Texels};
 use super::{Frame, Stats, CELL, TILE};
 use crate::gpu::shader::ISO_BISECTIONS;
 use std::arch::x86_64::*;
@@ -39,8 +39,7 @@ pub unsafe fn iso<T: Texels>(
     let as_ps = _mm256_castsi256_ps;
     let (start, per) = voxel_axes(p, &rays, dims);
     let h = set(p.step_size);
-    let shift_h = _mm256_mul_ps(rays.shift, h);
-    let first_len = _mm256_min_ps(_mm256_mul_ps(_mm256_add_ps(set(1.0), rays.shift), h), rays.chord);
+    let spans = Spans::new(p, &rays);
     let hi: [__m256i; 3] = dims.map(|d| _mm256_set1_epi32(d as i32 - 1));
     let stride = tex.strides(dims).map(|s| _mm256_set1_epi32(s));
     // `value_prescale` is left out: the caller joins a split scale into `value_scale`.
@@ -55,12 +54,9 @@ pub unsafe fn iso<T: Texels>(
     let value_at = |at: __m256| _mm256_fmadd_ps(texel_at(at)[0], value_scale, value_offset);
     // NaN counts as below.
     let reaches = |v: __m256| _mm256_cmp_ps::<_CMP_GE_OQ>(v, iso_value);
-    // The midpoint of segment i (rays.wgsl `span`: the first one is shorter under jitter).
     let midpoint = |i: __m256i| -> __m256 {
-        let a = _mm256_fmadd_ps(_mm256_cvtepi32_ps(i), h, shift_h);
-        let before = _mm256_cmp_ps::<_CMP_LT_OQ>(a, zero);
-        let seg = _mm256_blendv_ps(_mm256_max_ps(_mm256_min_ps(h, _mm256_sub_ps(rays.chord, a)), zero), first_len, before);
-        _mm256_fmadd_ps(seg, set(0.5), _mm256_andnot_ps(before, a))
+        let (start_at, seg) = spans.span(i);
+        _mm256_fmadd_ps(seg, set(0.5), start_at)
     };
     // Cells leapt: the empty radius codes of the cells that cannot reach the iso value.
     let (radius_grid, grid) = match f.cells {
@@ -192,21 +188,10 @@ pub unsafe fn iso<T: Texels>(
     } else {
         set(p.ambient)
     };
-    let lanes = |x: __m256| -> [f32; 8] {
-        let mut l = [0f32; 8];
-        // SAFETY: an unaligned store of eight floats into eight.
-        unsafe { _mm256_storeu_ps(l.as_mut_ptr(), x) };
-        l
-    };
     let (found, light, hit_at) = (lanes(found), lanes(light), lanes(hit_at));
     let (t0, needed) = (lanes(rays.t0), lanes(rays.needed));
-    let (mut counts, mut steps_n) = ([0i32; 8], [0i32; 8]);
-    // SAFETY: unaligned stores of eight integers into eight.
-    unsafe {
-        _mm256_storeu_si256(counts.as_mut_ptr() as *mut __m256i, taken);
-        _mm256_storeu_si256(steps_n.as_mut_ptr() as *mut __m256i, rays.n);
-    }
-    let c = lut_entry(f.lut, p.iso_value);
+    let (counts, steps_n) = (int_lanes(taken), int_lanes(rays.n));
+    let c = crate::transfer::eval_lut(f.lut, p.iso_value as f64).map(|c| c as f32);
     let hits = _mm256_movemask_ps(rays.hit);
     let mut stats = Stats::default();
     for l in 0..TILE {
@@ -228,13 +213,4 @@ pub unsafe fn iso<T: Texels>(
         depth[l] = t0[l] + hit_at[l];
     }
     stats
-}
-
-/// The transfer function's entry for `v` (sampling.wgsl `eval_lut`).
-fn lut_entry(lut: &[[f32; 4]], v: f32) -> [f32; 4] {
-    let m = lut.len();
-    let x = v.clamp(0.0, 1.0) * (m - 1) as f32;
-    let k = (x as usize).min(m - 2);
-    let t = x - k as f32;
-    std::array::from_fn(|c| (lut[k + 1][c] - lut[k][c]).mul_add(t, lut[k][c]))
 }

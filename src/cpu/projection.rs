@@ -6,7 +6,7 @@
 //! but the table clamps values to [0, 1], so a ray whose maximum reaches 1
 //! (whose minimum reaches 0) has its pixel and stops, as the shader's do.
 
-use super::avx2::{corners, voxel_axes, Texels};
+use super::avx2::{corners, int_lanes, lanes, voxel_axes, Spans, Texels};
 use super::{Frame, Model, Stats, TILE};
 use std::arch::x86_64::*;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -32,9 +32,7 @@ pub unsafe fn project<T: Texels>(
     let set = _mm256_set1_ps;
     let (zero, zi) = (_mm256_setzero_ps(), _mm256_setzero_si256());
     let (start, per) = voxel_axes(p, &rays, dims);
-    let h = set(p.step_size);
-    let shift_h = _mm256_mul_ps(rays.shift, h);
-    let first_len = _mm256_min_ps(_mm256_mul_ps(_mm256_add_ps(set(1.0), rays.shift), h), rays.chord);
+    let spans = Spans::new(p, &rays);
     let hi: [__m256i; 3] = dims.map(|d| _mm256_set1_epi32(d as i32 - 1));
     let stride = tex.strides(dims).map(|s| _mm256_set1_epi32(s));
     // `value_prescale` is left out: the caller joins a split scale into `value_scale`.
@@ -62,11 +60,7 @@ pub unsafe fn project<T: Texels>(
         if steps % 1024 == 0 && halt.load(Ordering::Relaxed) {
             break;
         }
-        // The segment (rays.wgsl `span`): the first one is shorter under jitter.
-        let a = _mm256_fmadd_ps(_mm256_cvtepi32_ps(i), h, shift_h);
-        let before = _mm256_cmp_ps::<_CMP_LT_OQ>(a, zero);
-        let start_at = _mm256_andnot_ps(before, a);
-        let seg = _mm256_blendv_ps(_mm256_max_ps(_mm256_min_ps(h, _mm256_sub_ps(rays.chord, a)), zero), first_len, before);
+        let (start_at, seg) = spans.span(i);
         let mid = _mm256_fmadd_ps(seg, set(0.5), start_at);
         let reads = _mm256_and_ps(active, _mm256_cmp_ps::<_CMP_GT_OQ>(seg, zero));
         taken = _mm256_sub_epi32(taken, _mm256_castps_si256(reads));
@@ -95,20 +89,9 @@ pub unsafe fn project<T: Texels>(
         going = _mm256_and_ps(going, as_ps(_mm256_cmpgt_epi32(rays.hi, i)));
     }
 
-    let lanes = |x: __m256| -> [f32; 8] {
-        let mut l = [0f32; 8];
-        // SAFETY: an unaligned store of eight floats into eight.
-        unsafe { _mm256_storeu_ps(l.as_mut_ptr(), x) };
-        l
-    };
     let (best, seen, sum, length, needed) = (lanes(best), lanes(seen), lanes(sum), lanes(length), lanes(rays.needed));
     let stopped = lanes(stopped);
-    let (mut counts, mut steps_n) = ([0i32; 8], [0i32; 8]);
-    // SAFETY: unaligned stores of eight integers into eight.
-    unsafe {
-        _mm256_storeu_si256(counts.as_mut_ptr() as *mut __m256i, taken);
-        _mm256_storeu_si256(steps_n.as_mut_ptr() as *mut __m256i, rays.n);
-    }
+    let (counts, steps_n) = (int_lanes(taken), int_lanes(rays.n));
     let hits = _mm256_movemask_ps(rays.hit);
     let mut stats = Stats::default();
     for l in 0..TILE {
@@ -128,18 +111,8 @@ pub unsafe fn project<T: Texels>(
             _ if seen[l].to_bits() != 0 => best[l],
             _ => continue,
         };
-        let c = lut_entry(f.lut, value);
+        let c = crate::transfer::eval_lut(f.lut, value as f64).map(|c| c as f32);
         out[l] = [c[0] * c[3], c[1] * c[3], c[2] * c[3], c[3]];
     }
     stats
-}
-
-/// The transfer function's entry for `v` (sampling.wgsl `eval_lut`): linear
-/// between the entries around v, clamped to [0, 1].
-fn lut_entry(lut: &[[f32; 4]], v: f32) -> [f32; 4] {
-    let m = lut.len();
-    let x = v.clamp(0.0, 1.0) * (m - 1) as f32;
-    let k = (x as usize).min(m - 2);
-    let t = x - k as f32;
-    std::array::from_fn(|c| (lut[k + 1][c] - lut[k][c]).mul_add(t, lut[k][c]))
 }
