@@ -185,6 +185,54 @@ impl Texels for R16Snorm<'_> {
     }
 }
 
+/// 8-bit codes (0..=255 for 0..=1) read as the low bytes of 32-bit words
+/// (the storage holds three bytes past the last texel).
+pub struct R8Unorm<'a>(pub &'a [u8]);
+
+impl Texels for R8Unorm<'_> {
+    const PER_TEXEL: usize = 1;
+    const VALUE_UNIT: f32 = 1.0 / 255.0;
+    const UNIT_BYTES: usize = 1;
+    fn base(&self) -> *const u8 {
+        self.0.as_ptr()
+    }
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4] {
+        let base = self.0.as_ptr() as *const i32;
+        let [v] = interpolate(offs, w, |o| {
+            // SAFETY: offsets address texels, and three bytes follow the last.
+            let x = unsafe { _mm256_i32gather_epi32::<1>(base, o) };
+            [_mm256_cvtepi32_ps(_mm256_and_si256(x, _mm256_set1_epi32(0xff)))]
+        });
+        value_only(v)
+    }
+}
+
+/// 16-bit codes (0..=65535 for 0..=1) read as the low halves of 32-bit
+/// words (the storage holds one code past the last texel).
+pub struct R16Unorm<'a>(pub &'a [u16]);
+
+impl Texels for R16Unorm<'_> {
+    const PER_TEXEL: usize = 1;
+    const VALUE_UNIT: f32 = 1.0 / 65535.0;
+    const UNIT_BYTES: usize = 2;
+    fn base(&self) -> *const u8 {
+        self.0.as_ptr() as *const u8
+    }
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4] {
+        let base = self.0.as_ptr() as *const i32;
+        let [v] = interpolate(offs, w, |o| {
+            // SAFETY: offsets address texels, and one code follows the last.
+            let x = unsafe { _mm256_i32gather_epi32::<2>(base, o) };
+            [_mm256_cvtepi32_ps(_mm256_and_si256(x, _mm256_set1_epi32(0xffff)))]
+        });
+        value_only(v)
+    }
+}
+
 /// e^x for x <= 0 (2^(x log2 e), degree-6 polynomial): relative error
 /// ~2e-7; below -87 it returns ~1.6e-38, under the 1e-30 at which a ray
 /// stops with transmittance 0, as the shader's exp underflows to.
@@ -201,6 +249,36 @@ fn exp_nonpositive(x: __m256) -> __m256 {
     }
     let bits = _mm256_slli_epi32::<23>(_mm256_add_epi32(_mm256_cvtps_epi32(k), _mm256_set1_epi32(127)));
     _mm256_mul_ps(poly, _mm256_castsi256_ps(bits))
+}
+
+/// -ln(1 - a) for opacities a in [0, 1], the power form's extinction
+/// (compositing.wgsl `extinction`): its series below 1e-3, 1e30 from 1 up.
+/// ln y for y = 1 - a = m 2^e, m in [sqrt(1/2), sqrt(2)): e ln 2 plus
+/// 2 atanh((m - 1) / (m + 1)) to its f^9 term (|f| <= 0.172, the next term
+/// ~4e-10): relative error ~1e-7.
+#[inline]
+#[target_feature(enable = "avx2,fma")]
+fn neg_log_one_minus(a: __m256) -> __m256 {
+    let one = _mm256_set1_ps(1.0);
+    let series = _mm256_mul_ps(a, _mm256_fmadd_ps(a, _mm256_fmadd_ps(a, _mm256_set1_ps(1.0 / 3.0), _mm256_set1_ps(0.5)), one));
+    // Clamped so that the bits below hold a normal number; lanes at 1 and up are replaced.
+    let y = _mm256_max_ps(_mm256_sub_ps(one, a), _mm256_set1_ps(f32::MIN_POSITIVE));
+    let bits = _mm256_castps_si256(y);
+    // The exponent taken about sqrt(1/2), so that m lands in [sqrt(1/2), sqrt(2)).
+    let shifted = _mm256_sub_epi32(bits, _mm256_set1_epi32(0x3f35_04f3));
+    let e = _mm256_srai_epi32::<23>(shifted);
+    let m = _mm256_castsi256_ps(_mm256_sub_epi32(bits, _mm256_slli_epi32::<23>(e)));
+    let f = _mm256_div_ps(_mm256_sub_ps(m, one), _mm256_add_ps(m, one));
+    let f2 = _mm256_mul_ps(f, f);
+    let mut poly = _mm256_set1_ps(1.0 / 9.0);
+    for c in [1.0 / 7.0, 1.0 / 5.0, 1.0 / 3.0, 1.0] {
+        poly = _mm256_fmadd_ps(poly, f2, _mm256_set1_ps(c));
+    }
+    let ln_m = _mm256_mul_ps(_mm256_mul_ps(_mm256_set1_ps(2.0), f), poly);
+    let ln_y = _mm256_fmadd_ps(_mm256_cvtepi32_ps(e), _mm256_set1_ps(std::f32::consts::LN_2), ln_m);
+    let full = _mm256_sub_ps(_mm256_setzero_ps(), ln_y);
+    let x = _mm256_blendv_ps(full, series, _mm256_cmp_ps::<_CMP_LT_OQ>(a, _mm256_set1_ps(1e-3)));
+    _mm256_blendv_ps(x, _mm256_set1_ps(1.0e30), _mm256_cmp_ps::<_CMP_GE_OQ>(a, one))
 }
 
 /// 1 - e^-x for x >= 0, by its series below 1e-3 (compositing.wgsl).
@@ -345,7 +423,8 @@ pub(super) fn corners(u: &[__m256; 3], hi: &[__m256i; 3], stride: &[__m256i; 3])
 ///
 /// # Safety
 /// Needs AVX2 and FMA; `f.cells`, where given, is followed by three
-/// readable bytes, and R16Snorm codes by one (`super::render` checks).
+/// readable bytes, and the texels by the padding their reads need
+/// (`Texels::padded`, which `super::render` checks).
 #[target_feature(enable = "avx2,fma")]
 pub unsafe fn march<T: Texels>(
     f: &Frame,
@@ -681,6 +760,7 @@ pub unsafe fn march<T: Texels>(
             let midpoint = |seg: __m256| -> (__m256, [__m256; 3]) {
                 let rgba = lut_entry(_mm256_and_ps(v, valid));
                 let sigma = _mm256_and_ps(rgba[3], valid);
+                let sigma = if f.power { _mm256_and_ps(neg_log_one_minus(sigma), valid) } else { sigma };
                 let seen = _mm256_and_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(sigma, zero), _mm256_cmp_ps::<_CMP_GT_OQ>(seg, zero));
                 let x = _mm256_and_ps(_mm256_min_ps(_mm256_mul_ps(sigma, _mm256_mul_ps(seg, seg_unit)), _mm256_set1_ps(1.0e30)), seen);
                 if !emits {
@@ -944,5 +1024,34 @@ mod tests {
         // 2 MiB of texels stay in the caches; 16 MiB do not.
         assert!(!prefetch_for(4.0, 0xff, 8, [64, 64, 64]));
         assert!(prefetch_for(4.0, 0xff, 8, [128, 128, 128]));
+    }
+
+    #[test]
+    fn neg_log_one_minus_matches_f64() {
+        if !(is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma")) {
+            return;
+        }
+        // Every 2^-16 of opacity, the series' edge, f32's largest below 1,
+        // and the opaque and beyond.
+        let mut a: Vec<f32> = (0..=65535).map(|k| k as f32 / 65536.0).collect();
+        a.extend([9.99e-4, 1e-3, 1.001e-3, 1.0 - f32::EPSILON / 2.0, 1.0, 1.5]);
+        for chunk in a.chunks(8) {
+            let mut lanes = [0.0f32; 8];
+            lanes[..chunk.len()].copy_from_slice(chunk);
+            let mut out = [0.0f32; 8];
+            // SAFETY: AVX2 and FMA are available.
+            unsafe { _mm256_storeu_ps(out.as_mut_ptr(), neg_log_one_minus(_mm256_loadu_ps(lanes.as_ptr()))) };
+            for (&x, &got) in lanes.iter().zip(&out) {
+                if x >= 1.0 {
+                    assert_eq!(got, 1.0e30, "{x}");
+                    continue;
+                }
+                let want = -(-(x as f64)).ln_1p();
+                // 1 - a rounded to f32 (as the shader rounds it) moves the
+                // log by up to 2^-24 / (1 - a); the series below 1e-3 is good to ~a^4 / 4.
+                let tol = 4e-7 * want + 6e-8 / (1.0 - x as f64) + (x as f64).powi(4) / 3.0;
+                assert!((got as f64 - want).abs() <= tol, "a = {x}: {got} against {want}");
+            }
+        }
     }
 }

@@ -19,7 +19,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 ///
 /// # Safety
 /// Needs AVX2 and FMA; `f.cells`, where given, is followed by three
-/// readable bytes, and R16Snorm codes by one (`super::render` checks).
+/// readable bytes, and the texels by the padding their reads need
+/// (`Texels::padded`, which `super::render` checks).
 #[target_feature(enable = "avx2,fma")]
 pub unsafe fn iso<T: Texels>(
     f: &Frame,

@@ -8,7 +8,8 @@
 //! every core, reading each 16-bit fixed-point texel (value and normal) in
 //! one 64-bit gather. It covers the frames most CPU-only users render:
 //! emission–absorption (plain, pre-integrated or refined), absorption and
-//! emission marched front to back, exponential opacity correction, no
+//! emission (either marching order: back-to-front frames are marched front
+//! to back, the same sum), either opacity correction, no
 //! light or a directional or point one lighting from normals (or
 //! gradients) held in the texels, with or without jitter, skipping and uniform runs, the
 //! maximum, minimum and average intensity projections (`projection`) and
@@ -40,6 +41,57 @@ pub enum Texels {
     /// Value codes, and one more past the last so that every code can be
     /// read as the low half of a 32-bit word.
     R16Snorm(Vec<i16>),
+    /// 8-bit codes, and three bytes past the last.
+    R8Unorm(Vec<u8>),
+    /// 16-bit codes, and one more past the last.
+    R16Unorm(Vec<u16>),
+}
+
+impl Texels {
+    /// Whether the storage holds the padding its 32-bit reads need past `n` texels.
+    fn padded(&self, n: usize) -> bool {
+        match self {
+            Texels::Rgba32Float(t) => t.len() >= n,
+            Texels::Rgba16Snorm(t) => t.len() >= n,
+            Texels::R32Float(t) => t.len() >= n,
+            Texels::R16Snorm(t) => t.len() > n,
+            Texels::R8Unorm(t) => t.len() >= n + 3,
+            Texels::R16Unorm(t) => t.len() > n,
+        }
+    }
+}
+
+/// `$call` with `$t` bound to the march's reader of `$texels`.
+#[cfg(target_arch = "x86_64")]
+macro_rules! with_reader {
+    ($texels:expr, $t:ident => $call:expr) => {
+        match $texels {
+            Texels::Rgba32Float(x) => {
+                let $t = &avx2::Rgba32Float(x);
+                $call
+            }
+            Texels::Rgba16Snorm(x) => {
+                let $t = &avx2::Rgba16Snorm(x);
+                $call
+            }
+            Texels::R32Float(x) => {
+                let $t = &avx2::R32Float(x);
+                $call
+            }
+            Texels::R16Snorm(x) => {
+                let $t = &avx2::R16Snorm(x);
+                $call
+            }
+            Texels::R8Unorm(x) => {
+                let $t = &avx2::R8Unorm(x);
+                $call
+            }
+            Texels::R16Unorm(x) => {
+                let $t = &avx2::R16Unorm(x);
+                $call
+            }
+        }
+    };
 }
 
 pub struct CpuVolume {
@@ -123,6 +175,10 @@ pub struct Frame<'a> {
     /// With `preint`: segments whose values may reach an opacity change
     /// their ramp misses are taken as this many midpoint samples (0: none).
     pub refine: u32,
+    /// Opacity correction's power form: a sample's extinction is
+    /// -ln(1 - a) for its table opacity a (else a itself). A
+    /// pre-integration table holds extinctions already.
+    pub power: bool,
 }
 
 /// What a native frame took.
@@ -209,9 +265,7 @@ pub fn render(
         assert_eq!(frame.model, Model::EmissionAbsorption, "pre-integration tables are emission-absorption's");
         assert!(frame.refine <= 16, "refine");
     }
-    if let Texels::R16Snorm(t) = &frame.volume.texels {
-        assert!(t.len() > frame.volume.dims.iter().product::<usize>(), "16-bit codes need one of padding");
-    }
+    assert!(frame.volume.texels.padded(frame.volume.dims.iter().product()), "texels and their padding");
     let tiles_x = w.div_ceil(TILE);
     let tiles = tiles_x * h.div_ceil(TILE);
     let next = AtomicUsize::new(0);
@@ -322,27 +376,12 @@ fn march_row(
         // SAFETY: `render` checked AVX2 and FMA and the paddings.
         unsafe {
             if frame.model == Model::Isosurface {
-                return match &frame.volume.texels {
-                    Texels::Rgba32Float(t) => isosurface::iso(frame, &avx2::Rgba32Float(t), col0, row, out, depth, halt),
-                    Texels::Rgba16Snorm(t) => isosurface::iso(frame, &avx2::Rgba16Snorm(t), col0, row, out, depth, halt),
-                    Texels::R32Float(t) => isosurface::iso(frame, &avx2::R32Float(t), col0, row, out, depth, halt),
-                    Texels::R16Snorm(t) => isosurface::iso(frame, &avx2::R16Snorm(t), col0, row, out, depth, halt),
-                };
+                return with_reader!(&frame.volume.texels, t => isosurface::iso(frame, t, col0, row, out, depth, halt));
             }
             if frame.model.projects() {
-                return match &frame.volume.texels {
-                    Texels::Rgba32Float(t) => projection::project(frame, &avx2::Rgba32Float(t), col0, row, out, halt),
-                    Texels::Rgba16Snorm(t) => projection::project(frame, &avx2::Rgba16Snorm(t), col0, row, out, halt),
-                    Texels::R32Float(t) => projection::project(frame, &avx2::R32Float(t), col0, row, out, halt),
-                    Texels::R16Snorm(t) => projection::project(frame, &avx2::R16Snorm(t), col0, row, out, halt),
-                };
+                return with_reader!(&frame.volume.texels, t => projection::project(frame, t, col0, row, out, halt));
             }
-            match &frame.volume.texels {
-                Texels::Rgba32Float(t) => avx2::march(frame, &avx2::Rgba32Float(t), col0, row, out, halt),
-                Texels::Rgba16Snorm(t) => avx2::march(frame, &avx2::Rgba16Snorm(t), col0, row, out, halt),
-                Texels::R32Float(t) => avx2::march(frame, &avx2::R32Float(t), col0, row, out, halt),
-                Texels::R16Snorm(t) => avx2::march(frame, &avx2::R16Snorm(t), col0, row, out, halt),
-            }
+            with_reader!(&frame.volume.texels, t => avx2::march(frame, t, col0, row, out, halt))
         }
     }
     #[cfg(not(target_arch = "x86_64"))]

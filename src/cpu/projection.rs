@@ -15,7 +15,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 /// or Average); stops early (its pixels then are garbage) once `halt` is set.
 ///
 /// # Safety
-/// Needs AVX2 and FMA, and R16Snorm codes followed by one more (`super::render` checks).
+/// Needs AVX2 and FMA, and the texels followed by the padding their reads
+/// need (`Texels::padded`, which `super::render` checks).
 #[target_feature(enable = "avx2,fma")]
 pub unsafe fn project<T: Texels>(
     f: &Frame,

@@ -240,6 +240,7 @@ mod tests {
                 model: Model::EmissionAbsorption,
                 preint: None,
                 refine: 0,
+                power: false,
             };
             for row in 0..p.height {
                 for col0 in (0..p.width).step_by(TILE) {

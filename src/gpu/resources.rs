@@ -70,6 +70,7 @@ fn cpu_copy(
     let units = match format {
         wgpu::TextureFormat::Rgba32Float | wgpu::TextureFormat::R32Float => bytes.len() / 4,
         wgpu::TextureFormat::Rgba16Snorm => bytes.len() / 8,
+        wgpu::TextureFormat::R8Unorm => bytes.len(),
         _ => bytes.len() / 2,
     };
     if units >= i32::MAX as usize {
@@ -88,6 +89,8 @@ fn cpu_copy(
             Texels::R32Float(t)
         }
         wgpu::TextureFormat::R16Snorm => Texels::R16Snorm(copied(bytes, 1)?),
+        wgpu::TextureFormat::R8Unorm => Texels::R8Unorm(copied(bytes, 3)?),
+        wgpu::TextureFormat::R16Unorm => Texels::R16Unorm(copied(bytes, 1)?),
         _ => return None,
     };
     Some(CpuVolume { texels, dims })

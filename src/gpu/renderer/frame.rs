@@ -81,20 +81,21 @@ impl GpuRenderer {
         let projects = matches!(variant.model, Model::Mip | Model::MinIp | Model::Average);
         let iso = variant.model == Model::Isosurface;
         let composites = matches!(variant.model, Model::EmissionAbsorption | Model::Absorption | Model::Emission);
-        // Projections take no light; neither they nor the isosurface take opacity correction.
+        // Projections take no light.
         let shading = projects
             || match variant.shading {
                 Shading::AmbientOnly => true,
                 Shading::Normals => variant.layout.normals_in_volume && cpu.has_normals(),
                 Shading::Gradient => false,
             };
+        // Back-to-front frames (whose variant never stops early) are marched
+        // front to back: the same segments and the same sum, rounded in
+        // another order.
         self.native_march
             && shading
             && (projects || iso || composites)
-            && !variant.back_to_front
             && (!variant.pre_integrated || variant.model == Model::EmissionAbsorption)
             && !variant.unbiased
-            && (projects || iso || variant.correction == OpacityCorrection::Exponential)
             && self.tables.rows.len() >= 2
             && cfg.max_steps <= crate::cpu::MAX_STEPS as i64
     }
@@ -134,6 +135,7 @@ impl GpuRenderer {
             model,
             preint: variant.pre_integrated.then_some(&self.tables.preint_texels),
             refine: if variant.pre_integrated { variant.refine } else { 0 },
+            power: variant.correction == OpacityCorrection::Power,
         };
         let mut depth = if iso { Some(try_vec(out.len() / 4, f32::INFINITY, "the depth image")?) } else { None };
         let s = crate::cpu::render(&frame, bytemuck::cast_slice_mut(out), depth.as_deref_mut(), stop)
