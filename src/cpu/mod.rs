@@ -13,7 +13,8 @@
 //! light or a directional or point one lighting from normals (or
 //! gradients) held in the texels, with or without jitter, skipping and uniform runs, the
 //! maximum, minimum and average intensity projections (`projection`) and
-//! the isosurface (`isosurface`), from a volume held in one texture.
+//! the isosurface (`isosurface`), from a volume held in one texture
+//! (float32 or 16-bit fixed-point texels, or unlit 8- and 16-bit codes).
 //! Everything else stays on the GPU path, whose images these match
 //! (tests/test_native_march.py).
 
