@@ -1,7 +1,8 @@
 """Frames the native march took over from the shader later than the
 benchmark frame of benches/native_march.py: back-to-front order, the power
-opacity correction, and 8-bit volumes kept as 8-bit codes (fuel.vti's own
-storage, and the benchmark's double sphere quantised to it). Each frame is
+opacity correction, single scattering's shadow rays, and 8-bit volumes
+kept as 8-bit codes (fuel.vti's own storage, and the benchmark's double
+sphere quantised to it). Each frame is
 rendered by the shader and by the native march alternately in one process
 (`VolumeRenderer.native_march` off and on), and compared by median time and
 by the largest difference between their premultiplied images.
@@ -63,6 +64,9 @@ def cases(size):
              renderer(fuel, Light.ambient_only(1.0), OpacityTransferFunction.linear(0.0, 0.5), size), balanced),
             ("fuel.vti as uint8, mip", None, balanced.replace(model="mip")),
             ("fuel.vti as uint8, isosurface 0.3", None, balanced.replace(model="isosurface", iso_value=0.3)),
+            ("fuel.vti as uint8, single scattering (lit)",
+             renderer(fuel, Light.default(), OpacityTransferFunction.linear(0.0, 0.5), size),
+             balanced.replace(model="single_scattering")),
         ]
     return out
 

@@ -875,7 +875,7 @@ class VolumeRenderer:
         AVX2 and FMA, render the frames the native CPU march covers with it
         instead of the shader (default True; the environment variable
         ``PYVR_NATIVE_MARCH=0`` sets it off): emission-absorption (plain,
-        pre-integrated or refined), absorption and emission, in either order
+        pre-integrated or refined), single scattering, absorption and emission, in either order
         and with either opacity correction, unlit or lit from the normals (or
         gradients) the volume's texels hold, from float32 or fixed16
         storage, or unlit from uint8 or uint16, in one texture; the

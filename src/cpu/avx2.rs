@@ -311,6 +311,12 @@ pub(super) fn int_lanes(x: __m256i) -> [i32; 8] {
     out
 }
 
+#[inline]
+#[target_feature(enable = "avx2,fma")]
+fn dot3(a: &[__m256; 3], b: &[__m256; 3]) -> __m256 {
+    _mm256_fmadd_ps(a[0], b[0], _mm256_fmadd_ps(a[1], b[1], _mm256_mul_ps(a[2], b[2])))
+}
+
 /// The light at a texel lit from its normal (texel[1..4], any length) by a
 /// directional light travelling along `light_dir` (lighting.wgsl
 /// `light_intensity`): ambient where the normal is zero.
@@ -335,10 +341,19 @@ pub(super) fn lit_by(texel: &[__m256; 4], light_dir: &[__m256; 3], ambient: __m2
 #[inline]
 #[target_feature(enable = "avx2,fma")]
 pub(super) fn point_light_travel(p: &Params, rays: &super::rays8::Rays, at: __m256) -> ([__m256; 3], __m256) {
-    let set = _mm256_set1_ps;
     let t = _mm256_add_ps(rays.t0, at);
-    let v: [__m256; 3] =
-        std::array::from_fn(|k| _mm256_sub_ps(_mm256_fmadd_ps(rays.d[k], t, set(p.cam_pos[k])), set(p.light_pos[k])));
+    let (dir, defined, _) = travel_from_light(p, std::array::from_fn(|k| _mm256_fmadd_ps(rays.d[k], t, _mm256_set1_ps(p.cam_pos[k]))));
+    (dir, defined)
+}
+
+/// The unit direction a point light's light travels at `pos`, where it is
+/// defined, and the distance back to the light (sampling.wgsl
+/// `direction_and_length`).
+#[inline]
+#[target_feature(enable = "avx2,fma")]
+fn travel_from_light(p: &Params, pos: [__m256; 3]) -> ([__m256; 3], __m256, __m256) {
+    let set = _mm256_set1_ps;
+    let v: [__m256; 3] = std::array::from_fn(|k| _mm256_sub_ps(pos[k], set(p.light_pos[k])));
     let m = _mm256_max_ps(_mm256_max_ps(abs(v[0]), abs(v[1])), abs(v[2]));
     let defined = _mm256_cmp_ps::<_CMP_GT_OQ>(m, _mm256_setzero_ps());
     let huge = _mm256_cmp_ps::<_CMP_GT_OQ>(m, set(1.0e30));
@@ -346,7 +361,7 @@ pub(super) fn point_light_travel(p: &Params, rays: &super::rays8::Rays, at: __m2
     let ms = _mm256_mul_ps(_mm256_blendv_ps(set(1.0), m, defined), s);
     let u: [__m256; 3] = std::array::from_fn(|k| _mm256_div_ps(_mm256_mul_ps(v[k], s), ms));
     let l = _mm256_sqrt_ps(_mm256_fmadd_ps(u[0], u[0], _mm256_fmadd_ps(u[1], u[1], _mm256_mul_ps(u[2], u[2]))));
-    (std::array::from_fn(|k| _mm256_div_ps(u[k], l)), defined)
+    (std::array::from_fn(|k| _mm256_div_ps(u[k], l)), defined, _mm256_mul_ps(m, l))
 }
 
 /// The segment grid of eight rays (rays.wgsl `span`): segment i starts
@@ -472,6 +487,7 @@ pub unsafe fn march<T: Texels>(
     let (ambient, diffuse) = (_mm256_set1_ps(p.ambient), _mm256_set1_ps(p.diffuse));
     let directional = f.lit && !f.point_light && p.light_valid == 1;
     let point = f.lit && f.point_light;
+    let scatters = f.model == Model::SingleScattering && f.scatter;
     let threshold = _mm256_set1_ps(p.threshold);
     let cell = _mm256_set1_ps(1.0 / CELL);
     let border = _mm256_set1_ps(0.5 - p.border as f32);
@@ -523,6 +539,18 @@ pub unsafe fn march<T: Texels>(
             _mm_fmadd_ps(_mm_sub_ps(e1, e0), _mm_set1_ps(t[l]), e0)
         });
         transpose_rays(&rays)
+    };
+    // The opacity alone, as lut_entry interpolates it (two gathers).
+    let lut_alpha = |v: __m256| -> __m256 {
+        let xl = _mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(v, zero), one), lut_scale);
+        let k = _mm256_min_epi32(_mm256_cvttps_epi32(xl), lut_last);
+        let t = _mm256_sub_ps(xl, _mm256_cvtepi32_ps(k));
+        let at = _mm256_slli_epi32::<2>(k);
+        // SAFETY: k <= M - 2, so both entries lie in the table.
+        let (e0, e1) = unsafe {
+            (_mm256_i32gather_ps::<4>(lut.add(3), at), _mm256_i32gather_ps::<4>(lut.add(7), at))
+        };
+        _mm256_fmadd_ps(_mm256_sub_ps(e1, e0), t, e0)
     };
     // The table's bilinear entry for (front, back) values, as the sampler reads it.
     let table_entry = |vf: __m256, vb: __m256, t: &super::PreintTable| -> [__m256; 4] {
@@ -586,6 +614,67 @@ pub unsafe fn march<T: Texels>(
         // against the texels by `march`).
         let (a, b) = unsafe { (_mm256_i32gather_ps::<4>(base, at(i0)), _mm256_i32gather_ps::<4>(base, at(i1))) };
         _mm256_sub_ps(b, a)
+    };
+    // Single scattering's light at `pos` for lanes `need` (lighting.wgsl
+    // `scatter_intensity`): ambient, plus diffuse times the phase function
+    // times what a shadow ray to the light through the clip box lets
+    // through (midpoint rule at the shadow step, stopped once its optical
+    // depth passes SHADOW_TAU_MAX); and the shadow samples each lane took.
+    let scatter = |pos: [__m256; 3], need: __m256| -> (__m256, __m256i) {
+        let set = _mm256_set1_ps;
+        let (travel, defined, reach) = if f.point_light {
+            travel_from_light(p, pos)
+        } else {
+            let valid = if p.light_valid == 1 { as_ps(_mm256_set1_epi32(-1)) } else { zero };
+            (light_dir, valid, set(3.0e38))
+        };
+        let lit = _mm256_and_ps(need, defined);
+        let phase = if p.anisotropy == 0.0 {
+            one
+        } else {
+            let g = p.anisotropy;
+            let cos = _mm256_sub_ps(zero, dot3(&travel, &rays.d));
+            let denom = _mm256_fnmadd_ps(set(2.0 * g), cos, set(1.0 + g * g));
+            _mm256_div_ps(set(1.0 - g * g), _mm256_mul_ps(denom, _mm256_sqrt_ps(denom)))
+        };
+        let to_light = travel.map(|c| _mm256_sub_ps(zero, c));
+        let mut exit = set(3.0e38);
+        for k in 0..3 {
+            let (ahead, behind) = (_mm256_cmp_ps::<_CMP_GT_OQ>(to_light[k], zero), _mm256_cmp_ps::<_CMP_LT_OQ>(to_light[k], zero));
+            let wall = _mm256_blendv_ps(set(p.clip_lo[k]), set(p.clip_hi[k]), ahead);
+            let t = _mm256_div_ps(_mm256_sub_ps(wall, pos[k]), to_light[k]);
+            exit = _mm256_min_ps(exit, _mm256_blendv_ps(set(3.0e38), t, _mm256_or_ps(ahead, behind)));
+        }
+        let len = _mm256_max_ps(_mm256_min_ps(exit, reach), zero);
+        let hs = set(p.shadow_step);
+        let steps_n = _mm256_ceil_ps(_mm256_div_ps(len, hs));
+        let (mut tau, mut count, mut j) = (zero, zi, zero);
+        let mut going = _mm256_and_ps(lit, _mm256_cmp_ps::<_CMP_LT_OQ>(j, steps_n));
+        while _mm256_movemask_ps(going) != 0 {
+            let s0 = _mm256_mul_ps(j, hs);
+            let seg = _mm256_min_ps(hs, _mm256_sub_ps(len, s0));
+            going = _mm256_and_ps(going, _mm256_cmp_ps::<_CMP_GT_OQ>(seg, zero));
+            let along = _mm256_fmadd_ps(seg, set(0.5), s0);
+            let u: [__m256; 3] = std::array::from_fn(|k| {
+                let q = _mm256_fmadd_ps(to_light[k], along, pos[k]);
+                let tc = _mm256_fmadd_ps(q, set(p.tex_scale[k]), set(p.tex_offset[k]));
+                _mm256_fmsub_ps(tc, set(dims[k] as f32), set(0.5))
+            });
+            let (offs, w) = corners(&u, &hi, &stride);
+            let v = _mm256_fmadd_ps(tex.trilinear(&offs, &w)[0], value_scale, value_offset);
+            let valid = _mm256_cmp_ps::<_CMP_ORD_Q>(v, v);
+            count = _mm256_sub_epi32(count, _mm256_castps_si256(going));
+            let a = lut_alpha(_mm256_and_ps(v, valid));
+            let sigma = if f.power { neg_log_one_minus(a) } else { a };
+            let x = _mm256_mul_ps(sigma, _mm256_mul_ps(seg, seg_unit));
+            tau = _mm256_add_ps(tau, _mm256_and_ps(x, _mm256_and_ps(going, valid)));
+            going = _mm256_andnot_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(tau, set(crate::integrate::SHADOW_TAU_MAX as f32)), going);
+            j = _mm256_add_ps(j, one);
+            going = _mm256_and_ps(going, _mm256_cmp_ps::<_CMP_LT_OQ>(j, steps_n));
+        }
+        let through = exp_nonpositive(_mm256_sub_ps(zero, tau));
+        let light = _mm256_fmadd_ps(_mm256_mul_ps(diffuse, phase), through, ambient);
+        (_mm256_blendv_ps(ambient, light, lit), count)
     };
     let mut steps = 0u32;
     while _mm256_movemask_ps(active) != 0 {
@@ -712,6 +801,7 @@ pub unsafe fn march<T: Texels>(
         }
         // Lanes that read the volume: those that do not leap.
         let fetch = _mm256_andnot_ps(leap, active);
+        let mut shadow_taken = zi;
         let (x, add) = if _mm256_movemask_ps(fetch) == 0 {
             (zero, [zero; 3])
         } else {
@@ -747,7 +837,10 @@ pub unsafe fn march<T: Texels>(
             // NaN reads as value 0 and opacity 0.
             let v = _mm256_fmadd_ps(texel[0], value_scale, value_offset);
             let valid = _mm256_cmp_ps::<_CMP_ORD_Q>(v, v);
-            let light = if directional {
+            // Scattered light comes after the segment's extinction is known.
+            let light = if scatters {
+                one
+            } else if directional {
                 lit_by(&texel, &light_dir, ambient, diffuse)
             } else if point {
                 let (travel, defined) = point_light_travel(p, &rays, at);
@@ -771,6 +864,19 @@ pub unsafe fn march<T: Texels>(
                 (x, std::array::from_fn(|c| _mm256_mul_ps(k, rgba[c])))
             };
             let (x, add) = match f.preint {
+                None if scatters => {
+                    let (x, add) = midpoint(seg);
+                    let need = _mm256_and_ps(fetch, _mm256_cmp_ps::<_CMP_GT_OQ>(x, zero));
+                    if _mm256_movemask_ps(need) == 0 {
+                        (x, add)
+                    } else {
+                        let t = _mm256_add_ps(rays.t0, at);
+                        let pos = std::array::from_fn(|k| _mm256_fmadd_ps(rays.d[k], t, _mm256_set1_ps(p.cam_pos[k])));
+                        let (light, count) = scatter(pos, need);
+                        shadow_taken = count;
+                        (x, add.map(|c| _mm256_mul_ps(c, light)))
+                    }
+                }
                 None => midpoint(seg),
                 Some(table) => {
                     let (held_v, held_light) = (carry_v, carry_light);
@@ -871,7 +977,8 @@ pub unsafe fn march<T: Texels>(
         if !emission {
             tau_b = _mm256_add_ps(tau_b, _mm256_and_ps(x, blend));
         }
-        // Partial sums of 2^8 samples folded into the totals.
+        // Partial sums of 2^8 samples (shadow samples included) folded into the totals.
+        taken = _mm256_add_epi32(taken, shadow_taken);
         let block = _mm256_srli_epi32::<8>(taken);
         let fold = _mm256_and_ps(blend, _mm256_xor_ps(as_ps(_mm256_cmpeq_epi32(block, blocks)), as_ps(_mm256_set1_epi32(-1))));
         if _mm256_movemask_ps(fold) != 0 {

@@ -7,7 +7,8 @@
 //! and early termination) with eight rays in the lanes of AVX2 registers on
 //! every core, reading each 16-bit fixed-point texel (value and normal) in
 //! one 64-bit gather. It covers the frames most CPU-only users render:
-//! emission–absorption (plain, pre-integrated or refined), absorption and
+//! emission–absorption (plain, pre-integrated or refined), single
+//! scattering (shadow rays from every sample), absorption and
 //! emission (either marching order: back-to-front frames are marched front
 //! to back, the same sum), either opacity correction, no
 //! light or a directional or point one lighting from normals (or
@@ -136,6 +137,9 @@ pub enum Model {
     Average,
     /// The first point at or above the iso value, shaded (`isosurface`).
     Isosurface,
+    /// Emission–absorption lit by the light a shadow ray lets through
+    /// (with `Frame::scatter`).
+    SingleScattering,
 }
 
 impl Model {
@@ -180,6 +184,9 @@ pub struct Frame<'a> {
     /// -ln(1 - a) for its table opacity a (else a itself). A
     /// pre-integration table holds extinctions already.
     pub power: bool,
+    /// Single scattering's samples take the light a shadow ray to the
+    /// light lets through, by the phase function (else ambient light only).
+    pub scatter: bool,
 }
 
 /// What a native frame took.

@@ -241,6 +241,7 @@ mod tests {
                 preint: None,
                 refine: 0,
                 power: false,
+                scatter: false,
             };
             for row in 0..p.height {
                 for col0 in (0..p.width).step_by(TILE) {

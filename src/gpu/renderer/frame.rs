@@ -80,9 +80,13 @@ impl GpuRenderer {
         };
         let projects = matches!(variant.model, Model::Mip | Model::MinIp | Model::Average);
         let iso = variant.model == Model::Isosurface;
-        let composites = matches!(variant.model, Model::EmissionAbsorption | Model::Absorption | Model::Emission);
-        // Projections take no light.
+        let composites = matches!(
+            variant.model,
+            Model::EmissionAbsorption | Model::Absorption | Model::Emission | Model::SingleScattering
+        );
+        // Projections take no light; single scattering reads no normals.
         let shading = projects
+            || variant.model == Model::SingleScattering
             || match variant.shading {
                 Shading::AmbientOnly => true,
                 Shading::Normals => variant.layout.normals_in_volume && cpu.has_normals(),
@@ -116,6 +120,7 @@ impl GpuRenderer {
             Model::MinIp => crate::cpu::Model::MinIp,
             Model::Average => crate::cpu::Model::Average,
             Model::Isosurface => crate::cpu::Model::Isosurface,
+            Model::SingleScattering => crate::cpu::Model::SingleScattering,
             _ => crate::cpu::Model::EmissionAbsorption,
         };
         let iso = model == crate::cpu::Model::Isosurface;
@@ -127,7 +132,7 @@ impl GpuRenderer {
             lut: &self.tables.rows,
             cells: cells.then_some((&occ.codes[..], occ.dims)),
             skip_empty: variant.skip_empty && cells,
-            lit: variant.shading == Shading::Normals && !model.projects(),
+            lit: variant.shading == Shading::Normals && !model.projects() && model != crate::cpu::Model::SingleScattering,
             point_light: variant.point_light,
             early_termination: variant.early_termination && !model.projects(),
             jitter: variant.jitter,
@@ -136,6 +141,7 @@ impl GpuRenderer {
             preint: variant.pre_integrated.then_some(&self.tables.preint_texels),
             refine: if variant.pre_integrated { variant.refine } else { 0 },
             power: variant.correction == OpacityCorrection::Power,
+            scatter: model == crate::cpu::Model::SingleScattering && variant.shading != Shading::AmbientOnly,
         };
         let mut depth = if iso { Some(try_vec(out.len() / 4, f32::INFINITY, "the depth image")?) } else { None };
         let s = crate::cpu::render(&frame, bytemuck::cast_slice_mut(out), depth.as_deref_mut(), stop)
