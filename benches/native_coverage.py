@@ -2,7 +2,8 @@
 benchmark frame of benches/native_march.py: back-to-front order, the power
 opacity correction, single scattering's shadow rays, and 8-bit volumes
 kept as 8-bit codes (fuel.vti's own storage, and the benchmark's double
-sphere quantised to it). Each frame is
+sphere quantised to it), or lit from their gradients, which the native
+march's renderer stores beside the values. Each frame is
 rendered by the shader and by the native march alternately in one process
 (`VolumeRenderer.native_march` off and on), and compared by median time and
 by the largest difference between their premultiplied images.
@@ -33,8 +34,9 @@ from pyvr.transferfunctions import ColorTransferFunction, OpacityTransferFunctio
 from pyvr.volume import Volume  # noqa: E402
 
 
-def renderer(volume, light, otf, size):
+def renderer(volume, light, otf, size, native=True):
     r = VolumeRenderer(size, size, light=light)
+    r.native_march = native
     r.load_volume(volume)
     r.set_camera(Camera.isometric_view(distance=3.0))
     r.set_transfer_functions(ColorTransferFunction.from_colormap("plasma"), otf)
@@ -64,6 +66,12 @@ def cases(size):
              renderer(fuel, Light.ambient_only(1.0), OpacityTransferFunction.linear(0.0, 0.5), size), balanced),
             ("fuel.vti as uint8, mip", None, balanced.replace(model="mip")),
             ("fuel.vti as uint8, isosurface 0.3", None, balanced.replace(model="isosurface", iso_value=0.3)),
+            # Lit from its gradients: the shader's renderer never packs them
+            # (it takes central differences at each lit sample); the native
+            # one stores the values with their gradients at its first frame.
+            ("fuel.vti as uint8, lit from its gradients",
+             tuple(renderer(fuel, Light.default(), OpacityTransferFunction.linear(0.0, 0.5), size, native)
+                   for native in (False, True)), balanced),
             ("fuel.vti as uint8, single scattering (lit)",
              renderer(fuel, Light.default(), OpacityTransferFunction.linear(0.0, 0.5), size),
              balanced.replace(model="single_scattering")),
@@ -72,6 +80,9 @@ def cases(size):
 
 
 def frame(r, cfg, native):
+    """`r`: one renderer for both engines, or (the shader's, the native march's)."""
+    if isinstance(r, tuple):
+        r = r[native]
     r.native_march = native
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -108,7 +119,7 @@ def main():
     write_table(
         "native_coverage", f"benches/native_coverage.py --frames {args.frames}",
         ["frame", "shader ms", "native ms", "shader / native", "max difference (levels)", "pixels over 0.25 level"],
-        rows, device=r.device,
+        rows, device=VolumeRenderer(8, 8).device,
         note=f"{args.size}x{args.size}, balanced, isometric camera at distance 3; both engines alternately in one "
              f"process, median of {args.frames} frames each after a warm-up; differences between their "
              "premultiplied images.",

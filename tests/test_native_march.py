@@ -286,6 +286,31 @@ def test_back_to_front_matches_the_shader(kind):
         assert np.array_equal(ftb, a) and r.last_frame_stats["samples"] == sa["samples"]
 
 
+@pytest.mark.parametrize("dtype, code", [(np.uint8, 255), (np.uint16, 65535)])
+def test_lit_integer_volumes_pack_their_gradients_for_the_native_march(dtype, code):
+    # A lit integer volume without normals: the shader takes central
+    # differences of the interpolated codes at each lit sample (seven
+    # fetches); where the native march runs, the first lit frame stores
+    # the codes' fractions with their gradients (src/gradients.rs), and the
+    # native march reads one texel. The same rule, so the same image.
+    d = np.round(sphere_pair() * code).astype(dtype)
+    lit = Light.directional([-0.6, -0.3, -0.8], ambient=0.25, diffuse=0.75)
+    out = []
+    for native in (True, False):
+        r = VolumeRenderer(72, 64, config=RenderConfig.balanced(), light=lit)
+        r.native_march = native  # before the first frame: the shader's renderer never packs
+        r.load_volume(Volume(d, None, *BOX))
+        r.set_transfer_functions(ColorTransferFunction.from_colormap("viridis"), OpacityTransferFunction.linear(0.0, 0.4))
+        r.set_camera(OUTSIDE)
+        out.append((r.render(dtype=np.float32, premultiplied=True), dict(r.last_frame_stats)))
+        storage = r.counters()["volume_storage"]
+        assert storage == ("rgba32float (value, gradient)" if native else f"r{8 * d.itemsize}unorm"), storage
+    assert_same(*out, f"{dtype.__name__}, lit")
+    # Lit: the same volume under ambient light alone differs by whole levels.
+    r.set_light(Light.ambient_only(0.25))
+    assert np.abs(r.render(dtype=np.float32, premultiplied=True) - out[0][0]).max() > 10 * LEVEL
+
+
 @pytest.mark.parametrize("kind", ["normals_fixed16", "normals_float32"])
 def test_native_single_scattering_matches_the_shader(kind):
     # Dense enough that shadow rays pass optical depths of several units

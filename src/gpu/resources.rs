@@ -351,13 +351,23 @@ impl VolumeGpu {
 
     /// Float32 values with their gradients (`gradients::bordered_texels`),
     /// one Rgba32Float texel each, for gradient-shaded frames: a lit sample
-    /// then fetches once instead of seven times. None where the device
-    /// cannot filter float32 textures, a value is not finite, or the texels
-    /// pass its limits. `grid` is the volume's own: the shader takes the
-    /// border off before finding a sample's cell.
+    /// then fetches once instead of seven times. Integer codes are stored
+    /// as the fractions of their range the shader reads them as. None where
+    /// the device cannot filter float32 textures, a value is not finite, or
+    /// the texels pass its limits. `grid` is the volume's own: the shader
+    /// takes the border off before finding a sample's cell.
     pub fn with_gradients(ctx: &GpuContext, vol: &VolumeView, grid: &MinMaxGrid) -> Result<Option<VolumeGpu>, Error> {
-        let Voxels::F32(values) = vol.voxels else {
-            return Ok(None);
+        let converted: Vec<f32>;
+        let values: &[f32] = match vol.voxels {
+            Voxels::F32(v) => v,
+            Voxels::U8(v) => {
+                converted = try_collect(v.len(), "converting the volume", v.iter().map(|&c| c as f32 / 255.0))?;
+                &converted
+            }
+            Voxels::U16(v) => {
+                converted = try_collect(v.len(), "converting the volume", v.iter().map(|&c| c as f32 / 65535.0))?;
+                &converted
+            }
         };
         let big = vol.dims.map(|d| d + 2);
         let texels = big.iter().product::<usize>() as u64;

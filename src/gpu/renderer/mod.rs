@@ -338,11 +338,12 @@ impl GpuRenderer {
     /// Replaces the loaded volume's texture by one holding its values with
     /// their gradients (`VolumeGpu::with_gradients`), so that gradient-shaded
     /// frames fetch once a sample. `vol` must be the volume loaded, stored
-    /// as float32 values alone (no normals, not bricked, finite). Returns
-    /// whether it did; false leaves everything as it was.
+    /// as float32 values or integer codes alone (no normals, not bricked,
+    /// finite). Returns whether it did; false leaves everything as it was.
     pub fn pack_gradients(&mut self, vol: &VolumeView) -> Result<bool, Error> {
         self.check_process()?;
-        let plain = matches!(&self.volume, Some(v) if v.format == wgpu::TextureFormat::R32Float
+        let values_alone = [wgpu::TextureFormat::R32Float, wgpu::TextureFormat::R8Unorm, wgpu::TextureFormat::R16Unorm];
+        let plain = matches!(&self.volume, Some(v) if values_alone.contains(&v.format)
             && v.normals.is_none() && !v.normals_in_volume && v.dims == vol.dims && v.bounds == vol.bounds);
         if !plain || self.bricks.is_some() || vol.normals.is_some() {
             return Ok(false);
