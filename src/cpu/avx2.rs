@@ -647,11 +647,14 @@ pub unsafe fn march<T: Texels>(
         }
         let len = _mm256_max_ps(_mm256_min_ps(exit, reach), zero);
         let hs = set(p.shadow_step);
-        let steps_n = _mm256_ceil_ps(_mm256_div_ps(len, hs));
-        let (mut tau, mut count, mut j) = (zero, zi, zero);
-        let mut going = _mm256_and_ps(lit, _mm256_cmp_ps::<_CMP_LT_OQ>(j, steps_n));
+        // Counted in integers, as the shader's u32 (an f32 count stops
+        // growing at 2^24; the renderer allows up to 30000 steps a ray).
+        let steps_n = _mm256_min_ps(_mm256_ceil_ps(_mm256_div_ps(len, hs)), set(2_147_483_520.0));
+        let steps_n = _mm256_cvttps_epi32(steps_n);
+        let (mut tau, mut count, mut j) = (zero, zi, zi);
+        let mut going = _mm256_and_ps(lit, as_ps(_mm256_cmpgt_epi32(steps_n, j)));
         while _mm256_movemask_ps(going) != 0 {
-            let s0 = _mm256_mul_ps(j, hs);
+            let s0 = _mm256_mul_ps(_mm256_cvtepi32_ps(j), hs);
             let seg = _mm256_min_ps(hs, _mm256_sub_ps(len, s0));
             going = _mm256_and_ps(going, _mm256_cmp_ps::<_CMP_GT_OQ>(seg, zero));
             let along = _mm256_fmadd_ps(seg, set(0.5), s0);
@@ -669,8 +672,8 @@ pub unsafe fn march<T: Texels>(
             let x = _mm256_mul_ps(sigma, _mm256_mul_ps(seg, seg_unit));
             tau = _mm256_add_ps(tau, _mm256_and_ps(x, _mm256_and_ps(going, valid)));
             going = _mm256_andnot_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(tau, set(crate::integrate::SHADOW_TAU_MAX as f32)), going);
-            j = _mm256_add_ps(j, one);
-            going = _mm256_and_ps(going, _mm256_cmp_ps::<_CMP_LT_OQ>(j, steps_n));
+            j = _mm256_add_epi32(j, onei);
+            going = _mm256_and_ps(going, as_ps(_mm256_cmpgt_epi32(steps_n, j)));
         }
         let through = exp_nonpositive(_mm256_sub_ps(zero, tau));
         let light = _mm256_fmadd_ps(_mm256_mul_ps(diffuse, phase), through, ambient);

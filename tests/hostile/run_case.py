@@ -158,6 +158,28 @@ def case_sigint_native():
     return True
 
 
+def case_sigint_shadow_rays():
+    # Each sample's shadow ray takes up to ~29000 samples (the renderer's
+    # limit is 30000): minutes of work that Ctrl-C stops (on a CPU adapter
+    # the native march's).
+    from pyvr.config import RenderConfig
+    from pyvr.lighting import Light
+
+    from pyvr.transferfunctions import ColorTransferFunction, OpacityTransferFunction
+
+    r = renderer((64, 64))
+    # Faint: no shadow ray stops early at optical depth 16.
+    r.set_transfer_functions(ColorTransferFunction.from_colormap("viridis"), OpacityTransferFunction.linear(0.0, 0.01))
+    r.set_light(Light.directional([0.6, -0.3, 0.7], ambient=0.2, diffuse=0.8))
+    cfg = RenderConfig.balanced().replace(model="single_scattering")
+    r.render(config=cfg)
+    engine = r.last_frame_stats["engine"]
+    interrupted(lambda: r.render(config=cfg.replace(shadow_step_size=6e-5)))
+    r.render(config=cfg)
+    assert r.last_frame_stats["engine"] == engine
+    return True
+
+
 def case_sigint_float64():
     # With the progress bar (tqdm is installed with the test extras): the
     # KeyboardInterrupt may surface in the bar's update.

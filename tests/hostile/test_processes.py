@@ -62,7 +62,8 @@ def test_volumes_over_the_device_limits_load_as_bricks_without_reading(case, lim
     assert rss < 1024, f"{case} peaked at {rss} MiB"
 
 
-@pytest.mark.parametrize("case", ["sigint_gpu", "sigint_native", "sigint_float64", "sigint_float64_quiet"])
+@pytest.mark.parametrize("case", ["sigint_gpu", "sigint_native", "sigint_shadow_rays", "sigint_float64",
+                                  "sigint_float64_quiet"])
 def test_ctrl_c_stops_long_work_within_a_second(case):
     result, _ = run(case)
     assert result.startswith("OK interrupted"), result
