@@ -49,8 +49,8 @@ def cases(size):
     balanced = RenderConfig.balanced()
     out = [
         ("benchmark scene, back to front",
-         renderer(Volume(ds, compute_normal_volume(ds), *BOX), Light.default(), OpacityTransferFunction.linear(0.0, 0.1),
-                  size), balanced.replace(order="back_to_front")),
+         renderer(Volume(ds, compute_normal_volume(ds), *BOX), Light.default(),
+                  OpacityTransferFunction.linear(0.0, 0.1), size), balanced.replace(order="back_to_front")),
         ("benchmark scene, power correction", None, balanced.replace(opacity_correction="power")),
         ("double sphere 256^3 as uint8, unlit",
          renderer(Volume(np.round(ds * 255).astype(np.uint8), None, *BOX), Light.ambient_only(1.0),

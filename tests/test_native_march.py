@@ -300,7 +300,8 @@ def test_lit_integer_volumes_pack_their_gradients_for_the_native_march(dtype, co
         r = VolumeRenderer(72, 64, config=RenderConfig.balanced(), light=lit)
         r.native_march = native  # before the first frame: the shader's renderer never packs
         r.load_volume(Volume(d, None, *BOX))
-        r.set_transfer_functions(ColorTransferFunction.from_colormap("viridis"), OpacityTransferFunction.linear(0.0, 0.4))
+        r.set_transfer_functions(ColorTransferFunction.from_colormap("viridis"),
+                                 OpacityTransferFunction.linear(0.0, 0.4))
         r.set_camera(OUTSIDE)
         out.append((r.render(dtype=np.float32, premultiplied=True), dict(r.last_frame_stats)))
         storage = r.counters()["volume_storage"]

@@ -161,6 +161,24 @@ impl Texels for R32Float<'_> {
     }
 }
 
+/// The trilinear value of codes `SCALE` bytes wide, each read as the low
+/// bits of the 32-bit word at its offset and taken out of it by `code`.
+///
+/// # Safety
+/// The offsets address texels, and 4 - SCALE bytes follow the last.
+#[inline]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn word_codes<const SCALE: i32>(
+    base: *const i32,
+    offs: &[[__m256i; 2]; 3],
+    w: &[__m256; 3],
+    code: impl Fn(__m256i) -> __m256i,
+) -> [__m256; 4] {
+    // SAFETY: the caller's contract.
+    let [v] = interpolate(offs, w, |o| [_mm256_cvtepi32_ps(code(unsafe { _mm256_i32gather_epi32::<SCALE>(base, o) }))]);
+    value_only(v)
+}
+
 /// Codes read as the low halves of 32-bit words (the storage holds one
 /// code past the last texel).
 pub struct R16Snorm<'a>(pub &'a [i16]);
@@ -175,13 +193,9 @@ impl Texels for R16Snorm<'_> {
     #[inline]
     #[target_feature(enable = "avx2,fma")]
     unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4] {
-        let base = self.0.as_ptr() as *const i32;
-        let [v] = interpolate(offs, w, |o| {
-            // SAFETY: offsets address texels, and one code follows the last.
-            let x = unsafe { _mm256_i32gather_epi32::<2>(base, o) };
-            [_mm256_cvtepi32_ps(_mm256_srai_epi32::<16>(_mm256_slli_epi32::<16>(x)))]
-        });
-        value_only(v)
+        let signed = |x| _mm256_srai_epi32::<16>(_mm256_slli_epi32::<16>(x));
+        // SAFETY: offsets address texels, and one code follows the last.
+        unsafe { word_codes::<2>(self.0.as_ptr() as *const i32, offs, w, signed) }
     }
 }
 
@@ -199,13 +213,9 @@ impl Texels for R8Unorm<'_> {
     #[inline]
     #[target_feature(enable = "avx2,fma")]
     unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4] {
-        let base = self.0.as_ptr() as *const i32;
-        let [v] = interpolate(offs, w, |o| {
-            // SAFETY: offsets address texels, and three bytes follow the last.
-            let x = unsafe { _mm256_i32gather_epi32::<1>(base, o) };
-            [_mm256_cvtepi32_ps(_mm256_and_si256(x, _mm256_set1_epi32(0xff)))]
-        });
-        value_only(v)
+        let byte = |x| _mm256_and_si256(x, _mm256_set1_epi32(0xff));
+        // SAFETY: offsets address texels, and three bytes follow the last.
+        unsafe { word_codes::<1>(self.0.as_ptr() as *const i32, offs, w, byte) }
     }
 }
 
@@ -223,13 +233,9 @@ impl Texels for R16Unorm<'_> {
     #[inline]
     #[target_feature(enable = "avx2,fma")]
     unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4] {
-        let base = self.0.as_ptr() as *const i32;
-        let [v] = interpolate(offs, w, |o| {
-            // SAFETY: offsets address texels, and one code follows the last.
-            let x = unsafe { _mm256_i32gather_epi32::<2>(base, o) };
-            [_mm256_cvtepi32_ps(_mm256_and_si256(x, _mm256_set1_epi32(0xffff)))]
-        });
-        value_only(v)
+        let half = |x| _mm256_and_si256(x, _mm256_set1_epi32(0xffff));
+        // SAFETY: offsets address texels, and one code follows the last.
+        unsafe { word_codes::<2>(self.0.as_ptr() as *const i32, offs, w, half) }
     }
 }
 
@@ -260,7 +266,8 @@ fn exp_nonpositive(x: __m256) -> __m256 {
 #[target_feature(enable = "avx2,fma")]
 fn neg_log_one_minus(a: __m256) -> __m256 {
     let one = _mm256_set1_ps(1.0);
-    let series = _mm256_mul_ps(a, _mm256_fmadd_ps(a, _mm256_fmadd_ps(a, _mm256_set1_ps(1.0 / 3.0), _mm256_set1_ps(0.5)), one));
+    let series = _mm256_fmadd_ps(a, _mm256_set1_ps(1.0 / 3.0), _mm256_set1_ps(0.5));
+    let series = _mm256_mul_ps(a, _mm256_fmadd_ps(a, series, one));
     // Clamped so that the bits below hold a normal number; lanes at 1 and up are replaced.
     let y = _mm256_max_ps(_mm256_sub_ps(one, a), _mm256_set1_ps(f32::MIN_POSITIVE));
     let bits = _mm256_castps_si256(y);
@@ -342,7 +349,8 @@ pub(super) fn lit_by(texel: &[__m256; 4], light_dir: &[__m256; 3], ambient: __m2
 #[target_feature(enable = "avx2,fma")]
 pub(super) fn point_light_travel(p: &Params, rays: &super::rays8::Rays, at: __m256) -> ([__m256; 3], __m256) {
     let t = _mm256_add_ps(rays.t0, at);
-    let (dir, defined, _) = travel_from_light(p, std::array::from_fn(|k| _mm256_fmadd_ps(rays.d[k], t, _mm256_set1_ps(p.cam_pos[k]))));
+    let pos = std::array::from_fn(|k| _mm256_fmadd_ps(rays.d[k], t, _mm256_set1_ps(p.cam_pos[k])));
+    let (dir, defined, _) = travel_from_light(p, pos);
     (dir, defined)
 }
 
@@ -640,7 +648,8 @@ pub unsafe fn march<T: Texels>(
         let to_light = travel.map(|c| _mm256_sub_ps(zero, c));
         let mut exit = set(3.0e38);
         for k in 0..3 {
-            let (ahead, behind) = (_mm256_cmp_ps::<_CMP_GT_OQ>(to_light[k], zero), _mm256_cmp_ps::<_CMP_LT_OQ>(to_light[k], zero));
+            let ahead = _mm256_cmp_ps::<_CMP_GT_OQ>(to_light[k], zero);
+            let behind = _mm256_cmp_ps::<_CMP_LT_OQ>(to_light[k], zero);
             let wall = _mm256_blendv_ps(set(p.clip_lo[k]), set(p.clip_hi[k]), ahead);
             let t = _mm256_div_ps(_mm256_sub_ps(wall, pos[k]), to_light[k]);
             exit = _mm256_min_ps(exit, _mm256_blendv_ps(set(3.0e38), t, _mm256_or_ps(ahead, behind)));
@@ -671,7 +680,8 @@ pub unsafe fn march<T: Texels>(
             let sigma = if f.power { neg_log_one_minus(a) } else { a };
             let x = _mm256_mul_ps(sigma, _mm256_mul_ps(seg, seg_unit));
             tau = _mm256_add_ps(tau, _mm256_and_ps(x, _mm256_and_ps(going, valid)));
-            going = _mm256_andnot_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(tau, set(crate::integrate::SHADOW_TAU_MAX as f32)), going);
+            let deep = _mm256_cmp_ps::<_CMP_GT_OQ>(tau, set(crate::integrate::SHADOW_TAU_MAX as f32));
+            going = _mm256_andnot_ps(deep, going);
             j = _mm256_add_epi32(j, onei);
             going = _mm256_and_ps(going, as_ps(_mm256_cmpgt_epi32(steps_n, j)));
         }

@@ -2,6 +2,7 @@
 
 use super::{Ends, FrameStats, GpuRenderer, Rect, LEAP_MIN_UNIFORM, SKIP_MIN_EMPTY, STATS_BYTES};
 use crate::config::{OpacityCorrection, RenderConfig};
+use crate::cpu::Model as CpuModel;
 use crate::gpu::bindings;
 use crate::error::{try_vec, Error};
 use crate::gpu::params::{world_unit, FrameInputs, Params};
@@ -114,16 +115,16 @@ impl GpuRenderer {
         params.value_scale = (params.value_prescale as f64 * params.value_scale as f64) as f32;
         params.value_prescale = 1.0;
         let model = match variant.model {
-            Model::Absorption => crate::cpu::Model::Absorption,
-            Model::Emission => crate::cpu::Model::Emission,
-            Model::Mip => crate::cpu::Model::Mip,
-            Model::MinIp => crate::cpu::Model::MinIp,
-            Model::Average => crate::cpu::Model::Average,
-            Model::Isosurface => crate::cpu::Model::Isosurface,
-            Model::SingleScattering => crate::cpu::Model::SingleScattering,
-            _ => crate::cpu::Model::EmissionAbsorption,
+            Model::Absorption => CpuModel::Absorption,
+            Model::Emission => CpuModel::Emission,
+            Model::Mip => CpuModel::Mip,
+            Model::MinIp => CpuModel::MinIp,
+            Model::Average => CpuModel::Average,
+            Model::Isosurface => CpuModel::Isosurface,
+            Model::SingleScattering => CpuModel::SingleScattering,
+            _ => CpuModel::EmissionAbsorption,
         };
-        let iso = model == crate::cpu::Model::Isosurface;
+        let iso = model == CpuModel::Isosurface;
         // Projections read every segment (the shader's too): no leaps, no runs.
         let cells = !occ.codes.is_empty() && !model.projects();
         let frame = crate::cpu::Frame {
@@ -132,7 +133,8 @@ impl GpuRenderer {
             lut: &self.tables.rows,
             cells: cells.then_some((&occ.codes[..], occ.dims)),
             skip_empty: variant.skip_empty && cells,
-            lit: variant.shading == Shading::Normals && !model.projects() && model != crate::cpu::Model::SingleScattering,
+            // Single scattering's light comes from shadow rays, not normals.
+            lit: variant.shading == Shading::Normals && !model.projects() && model != CpuModel::SingleScattering,
             point_light: variant.point_light,
             early_termination: variant.early_termination && !model.projects(),
             jitter: variant.jitter,
@@ -141,7 +143,7 @@ impl GpuRenderer {
             preint: variant.pre_integrated.then_some(&self.tables.preint_texels),
             refine: if variant.pre_integrated { variant.refine } else { 0 },
             power: variant.correction == OpacityCorrection::Power,
-            scatter: model == crate::cpu::Model::SingleScattering && variant.shading != Shading::AmbientOnly,
+            scatter: model == CpuModel::SingleScattering && variant.shading != Shading::AmbientOnly,
         };
         let mut depth = if iso { Some(try_vec(out.len() / 4, f32::INFINITY, "the depth image")?) } else { None };
         let s = crate::cpu::render(&frame, bytemuck::cast_slice_mut(out), depth.as_deref_mut(), stop)
