@@ -1,6 +1,7 @@
 """Frames the native march took over from the shader later than the
 benchmark frame of benches/native_march.py: back-to-front order, the power
-opacity correction, single scattering's shadow rays, and 8-bit volumes
+opacity correction, single scattering's shadow rays, gradients taken from
+central differences at each lit sample, and 8-bit volumes
 kept as 8-bit codes (fuel.vti's own storage, and the benchmark's double
 sphere quantised to it), or lit from their gradients, which the native
 march's renderer stores beside the values. Each frame is
@@ -34,10 +35,10 @@ from pyvr.transferfunctions import ColorTransferFunction, OpacityTransferFunctio
 from pyvr.volume import Volume  # noqa: E402
 
 
-def renderer(volume, light, otf, size, native=True):
+def renderer(volume, light, otf, size, native=True, precision="auto"):
     r = VolumeRenderer(size, size, light=light)
     r.native_march = native
-    r.load_volume(volume)
+    r.load_volume(volume, precision=precision)
     r.set_camera(Camera.isometric_view(distance=3.0))
     r.set_transfer_functions(ColorTransferFunction.from_colormap("plasma"), otf)
     return r
@@ -56,6 +57,11 @@ def cases(size):
          renderer(Volume(np.round(ds * 255).astype(np.uint8), None, *BOX), Light.ambient_only(1.0),
                   OpacityTransferFunction.linear(0.0, 0.1), size), balanced),
         ("double sphere 256^3 as uint8, mip", None, balanced.replace(model="mip")),
+        # Values alone, lit: fixed16 texels hold no gradients, so each lit
+        # sample takes central differences (six more reads) in both engines.
+        ("double sphere 256^3 as fixed16, lit by central differences",
+         renderer(Volume(ds, None, *BOX), Light.default(), OpacityTransferFunction.linear(0.0, 0.1), size,
+                  precision="fixed16"), balanced),
     ]
     if os.path.exists(FUEL):
         raw = load_vti(FUEL).data

@@ -877,7 +877,8 @@ class VolumeRenderer:
         ``PYVR_NATIVE_MARCH=0`` sets it off): emission-absorption (plain,
         pre-integrated or refined), single scattering, absorption and emission, in either order
         and with either opacity correction, unlit or lit from the normals (or
-        gradients) the volume's texels hold, from float32 or fixed16
+        gradients) the volume's texels hold or from the values' central
+        differences, from float32 or fixed16
         storage, or unlit from uint8 or uint16, in one texture; the
         projections and the isosurface; 1.4x (float32) and 2.2x (fixed16) the
         shader's speed per sample on the benchmark scene (docs/speed.md).

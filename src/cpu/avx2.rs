@@ -548,6 +548,31 @@ pub unsafe fn march<T: Texels>(
         });
         transpose_rays(&rays)
     };
+    // (value, gradient) at voxel coordinates u from central differences one
+    // voxel apart of the interpolated values (sampling.wgsl `gradient`:
+    // zero where one is NaN, scaled by its largest component, then by the
+    // spacings), for volumes lit without stored normals or gradients.
+    let inv_two_spacing: [__m256; 3] = std::array::from_fn(|k| _mm256_set1_ps(p.inv_two_spacing[k]));
+    let gradient_at = |u: &[__m256; 3], value: __m256| -> [__m256; 4] {
+        let set = _mm256_set1_ps;
+        let g: [__m256; 3] = std::array::from_fn(|k| {
+            let (mut up, mut down) = (*u, *u);
+            up[k] = _mm256_add_ps(up[k], one);
+            down[k] = _mm256_sub_ps(down[k], one);
+            let ((ou, wu), (od, wd)) = (corners(&up, &hi, &stride), corners(&down, &hi, &stride));
+            _mm256_sub_ps(tex.trilinear(&ou, &wu)[0], tex.trilinear(&od, &wd)[0])
+        });
+        let ordered = _mm256_and_ps(
+            _mm256_cmp_ps::<_CMP_ORD_Q>(g[0], g[1]),
+            _mm256_cmp_ps::<_CMP_ORD_Q>(g[2], g[2]),
+        );
+        let m = _mm256_max_ps(_mm256_max_ps(abs(g[0]), abs(g[1])), abs(g[2]));
+        let some = _mm256_and_ps(ordered, _mm256_cmp_ps::<_CMP_GT_OQ>(m, zero));
+        let s = _mm256_blendv_ps(one, set(5.421010862e-20), _mm256_cmp_ps::<_CMP_GT_OQ>(m, set(1.0e30)));
+        let ms = _mm256_mul_ps(_mm256_blendv_ps(one, m, some), s);
+        let n = |k: usize| _mm256_and_ps(_mm256_mul_ps(_mm256_div_ps(_mm256_mul_ps(g[k], s), ms), inv_two_spacing[k]), some);
+        [value, n(0), n(1), n(2)]
+    };
     // The opacity alone, as lut_entry interpolates it (two gathers).
     let lut_alpha = |v: __m256| -> __m256 {
         let xl = _mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(v, zero), one), lut_scale);
@@ -850,14 +875,16 @@ pub unsafe fn march<T: Texels>(
             // NaN reads as value 0 and opacity 0.
             let v = _mm256_fmadd_ps(texel[0], value_scale, value_offset);
             let valid = _mm256_cmp_ps::<_CMP_ORD_Q>(v, v);
+            // The normal lit samples take: the texel's, or the field's gradient.
+            let normal = |texel: [__m256; 4]| if f.gradient { gradient_at(&u, texel[0]) } else { texel };
             // Scattered light comes after the segment's extinction is known.
             let light = if scatters {
                 one
             } else if directional {
-                lit_by(&texel, &light_dir, ambient, diffuse)
+                lit_by(&normal(texel), &light_dir, ambient, diffuse)
             } else if point {
                 let (travel, defined) = point_light_travel(p, &rays, at);
-                _mm256_blendv_ps(ambient, lit_by(&texel, &travel, ambient, diffuse), defined)
+                _mm256_blendv_ps(ambient, lit_by(&normal(texel), &travel, ambient, diffuse), defined)
             } else {
                 ambient
             };

@@ -12,7 +12,8 @@
 //! emission (either marching order: back-to-front frames are marched front
 //! to back, the same sum), either opacity correction, no
 //! light or a directional or point one lighting from normals (or
-//! gradients) held in the texels, with or without jitter, skipping and uniform runs, the
+//! gradients) held in the texels or from central differences of the
+//! values, with or without jitter, skipping and uniform runs, the
 //! maximum, minimum and average intensity projections (`projection`) and
 //! the isosurface (`isosurface`), from a volume held in one texture
 //! (float32 or 16-bit fixed-point texels, or unlit 8- and 16-bit codes).
@@ -165,6 +166,9 @@ pub struct Frame<'a> {
     pub skip_empty: bool,
     /// The texels' normals light the samples (else ambient light only).
     pub lit: bool,
+    /// With `lit`: the field's gradient, from central differences of the
+    /// interpolated values, stands for the normal (texels of values alone).
+    pub gradient: bool,
     /// With `lit`: the light is a point light at `params.light_pos` (else
     /// directional, along `params.light_dir`).
     pub point_light: bool,

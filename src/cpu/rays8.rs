@@ -233,6 +233,7 @@ mod tests {
                 cells: None,
                 skip_empty: case % 2 == 0,
                 lit: false,
+                gradient: false,
                 point_light: false,
                 early_termination: true,
                 jitter: case % 3 != 1,

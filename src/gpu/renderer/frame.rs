@@ -91,7 +91,8 @@ impl GpuRenderer {
             || match variant.shading {
                 Shading::AmbientOnly => true,
                 Shading::Normals => variant.layout.normals_in_volume && cpu.has_normals(),
-                Shading::Gradient => false,
+                // From central differences of the values (the isosurface reads texels' normals).
+                Shading::Gradient => composites,
             };
         // Back-to-front frames (whose variant never stops early) are marched
         // front to back: the same segments and the same sum, rounded in
@@ -134,7 +135,8 @@ impl GpuRenderer {
             cells: cells.then_some((&occ.codes[..], occ.dims)),
             skip_empty: variant.skip_empty && cells,
             // Single scattering's light comes from shadow rays, not normals.
-            lit: variant.shading == Shading::Normals && !model.projects() && model != CpuModel::SingleScattering,
+            lit: variant.shading != Shading::AmbientOnly && !model.projects() && model != CpuModel::SingleScattering,
+            gradient: variant.shading == Shading::Gradient,
             point_light: variant.point_light,
             early_termination: variant.early_termination && !model.projects(),
             jitter: variant.jitter,
