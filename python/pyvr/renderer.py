@@ -875,12 +875,12 @@ class VolumeRenderer:
         AVX2 and FMA, render the frames the native CPU march covers with it
         instead of the shader (default True; the environment variable
         ``PYVR_NATIVE_MARCH=0`` sets it off): emission-absorption (plain,
-        pre-integrated or refined), single scattering, absorption and emission, in either order
-        and with either opacity correction, unlit or lit from the normals (or
-        gradients) the volume's texels hold or from the values' central
-        differences, from float32 or fixed16
-        storage, or unlit from uint8 or uint16, in one texture; the
-        projections and the isosurface; 1.4x (float32) and 2.2x (fixed16) the
+        pre-integrated or refined), single scattering, absorption and
+        emission, in either order and with either opacity correction, unlit
+        or lit from the normals (or gradients) the volume's texels hold or
+        from the values' central differences, from float32, fixed16, uint8
+        or uint16 storage in one texture; the projections and the
+        isosurface; 1.4x (float32) and 2.2x (fixed16) the
         shader's speed per sample on the benchmark scene (docs/speed.md).
         Images match the shader's within 0.25 level
         (measured: 0.0004 on most scenes); ``last_frame_stats["engine"]``

@@ -164,7 +164,6 @@ def case_sigint_shadow_rays():
     # the native march's).
     from pyvr.config import RenderConfig
     from pyvr.lighting import Light
-
     from pyvr.transferfunctions import ColorTransferFunction, OpacityTransferFunction
 
     r = renderer((64, 64))
