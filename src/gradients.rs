@@ -16,14 +16,18 @@ use crate::error::{try_vec, Error};
 /// Gradient components are kept below this (f32's largest is 3.4e38).
 const F32_SAFE: f64 = 1.0e38;
 
-/// Texels (value, gradient) of the field `values` (numpy axis order, axis
-/// 2 fastest) over a grid one voxel larger on every side: texel q (each
+/// Texels (value, gradient) of the field whose voxel n (numpy axis order,
+/// axis 2 fastest) holds `value(n)`, over a grid one voxel larger on every side: texel q (each
 /// axis from -1 to d) holds v(clamp(q)) and, per axis a, (v(clamp(q + e_a))
 /// - v(clamp(q - e_a))) / (2 spacing_a), all scaled by one power of two
 /// where a component would pass 1e38 (the shader uses the direction only).
 /// Components are in world axis order (x along numpy axis 0). Values must
 /// be finite.
-pub fn bordered_texels(values: &[f32], dims: [usize; 3], spacing: [f64; 3]) -> Result<Vec<[f32; 4]>, Error> {
+pub fn bordered_texels(
+    value: impl Fn(usize) -> f32 + Sync,
+    dims: [usize; 3],
+    spacing: [f64; 3],
+) -> Result<Vec<[f32; 4]>, Error> {
     let padded = dims.iter().map(|d| d + 2).product::<usize>();
     let mut out = try_vec(padded, [0.0f32; 4], "packing the volume's gradients")?;
     let inv = spacing.map(|s| 0.5 / s);
@@ -32,9 +36,9 @@ pub fn bordered_texels(values: &[f32], dims: [usize; 3], spacing: [f64; 3]) -> R
     // is written again at a power of two that keeps them within f32.
     // Scaling every field to 1 instead would flush ordinary gradients
     // beside a fill value to 0.
-    let largest = fill(&mut out, values, dims, inv, 1.0);
+    let largest = fill(&mut out, &value, dims, inv, 1.0);
     if largest > F32_SAFE {
-        fill(&mut out, values, dims, inv, (F32_SAFE / largest).log2().floor().exp2());
+        fill(&mut out, &value, dims, inv, (F32_SAFE / largest).log2().floor().exp2());
     }
     Ok(out)
 }
@@ -43,11 +47,17 @@ pub fn bordered_texels(values: &[f32], dims: [usize; 3], spacing: [f64; 3]) -> R
 /// times `scale`, slabs of the first axis on every core (a 256^3 volume's
 /// texels took over a second on one); returns the largest unscaled
 /// gradient component.
-fn fill(out: &mut [[f32; 4]], values: &[f32], dims: [usize; 3], inv: [f64; 3], scale: f64) -> f64 {
+fn fill(
+    out: &mut [[f32; 4]],
+    value: &(impl Fn(usize) -> f32 + Sync),
+    dims: [usize; 3],
+    inv: [f64; 3],
+    scale: f64,
+) -> f64 {
     let [d0, d1, d2] = dims;
     let at = |i: isize, j: isize, k: isize| {
         let c = |x: isize, d: usize| x.clamp(0, d as isize - 1) as usize;
-        values[(c(i, d0) * d1 + c(j, d1)) * d2 + c(k, d2)] as f64
+        value((c(i, d0) * d1 + c(j, d1)) * d2 + c(k, d2)) as f64
     };
     let (row, slab) = (d2 + 2, (d1 + 2) * (d2 + 2));
     let planes = crate::cores::cores().min(d0 + 2).max(1);
@@ -113,7 +123,7 @@ mod tests {
         let spacing = [0.5, 2.0, 1.0];
         let values: Vec<f32> = (0..120).map(|n| ((n * 37 % 11) as f32 * 0.3).sin()).collect();
         let plain: Vec<[f32; 4]> = values.iter().map(|&v| [v, 0.0, 0.0, 0.0]).collect();
-        let t = bordered_texels(&values, dims, spacing).unwrap();
+        let t = bordered_texels(|n| values[n], dims, spacing).unwrap();
         let big = dims.map(|d| d + 2);
         // Points all over the box, including the half voxel past each face's
         // outermost voxel centres, where clamping matters.

@@ -321,7 +321,7 @@ impl VolumeGpu {
     /// shader, which reads values alone) and the texels fit one upload.
     pub fn packs_float32(ctx: &GpuContext, vol: &VolumeView, precision: Precision) -> bool {
         match (vol.voxels, vol.normals, precision) {
-            (Voxels::F32(v), Some(_), Precision::Float32) => Self::rgba32_fits(ctx, v, v.len() as u64),
+            (Voxels::F32(v), Some(_), Precision::Float32) => Self::rgba32_fits(ctx, vol.voxels, v.len() as u64),
             _ => false,
         }
     }
@@ -329,11 +329,11 @@ impl VolumeGpu {
     /// Whether `texels` Rgba32Float texels made from `values` can be
     /// filtered and uploaded: the device filters float32, they fit one
     /// upload, and every value is finite (volumes with NaN are interpolated
-    /// in the shader, which reads values alone).
-    fn rgba32_fits(ctx: &GpuContext, values: &[f32], texels: u64) -> bool {
+    /// in the shader, which reads values alone; integer codes always are).
+    fn rgba32_fits(ctx: &GpuContext, voxels: Voxels, texels: u64) -> bool {
         ctx.features.contains(wgpu::Features::FLOAT32_FILTERABLE)
             && texels * 16 <= ctx.limits.max_buffer_size
-            && values.iter().all(|x| x.is_finite())
+            && !matches!(voxels, Voxels::F32(v) if !v.iter().all(|x| x.is_finite()))
     }
 
     /// Float32 values with their normals' directions, one Rgba32Float texel each.
@@ -351,28 +351,15 @@ impl VolumeGpu {
 
     /// Float32 values with their gradients (`gradients::bordered_texels`),
     /// one Rgba32Float texel each, for gradient-shaded frames: a lit sample
-    /// then fetches once instead of seven times. Integer codes are stored
-    /// as the fractions of their range the shader reads them as. None where
+    /// then fetches once instead of seven times. None where
     /// the device cannot filter float32 textures, a value is not finite, or
     /// the texels pass its limits. `grid` is the volume's own: the shader
     /// takes the border off before finding a sample's cell.
     pub fn with_gradients(ctx: &GpuContext, vol: &VolumeView, grid: &MinMaxGrid) -> Result<Option<VolumeGpu>, Error> {
-        let converted: Vec<f32>;
-        let values: &[f32] = match vol.voxels {
-            Voxels::F32(v) => v,
-            Voxels::U8(v) => {
-                converted = try_collect(v.len(), "converting the volume", v.iter().map(|&c| c as f32 / 255.0))?;
-                &converted
-            }
-            Voxels::U16(v) => {
-                converted = try_collect(v.len(), "converting the volume", v.iter().map(|&c| c as f32 / 65535.0))?;
-                &converted
-            }
-        };
         let big = vol.dims.map(|d| d + 2);
         let texels = big.iter().product::<usize>() as u64;
         let max3d = ctx.limits.max_texture_dimension_3d as usize;
-        if big.iter().any(|&d| d > max3d) || !Self::rgba32_fits(ctx, values, texels) {
+        if big.iter().any(|&d| d > max3d) || !Self::rgba32_fits(ctx, vol.voxels, texels) {
             return Ok(None);
         }
         // Only the spacings' ratios matter: in units of the box's longest
@@ -381,7 +368,12 @@ impl VolumeGpu {
         let extent = vol.bounds.extent().to_array();
         let unit = extent.iter().copied().fold(0.0, f64::max);
         let spacing = std::array::from_fn(|a| extent[a] / unit / vol.dims[a] as f64);
-        let data = gradients::bordered_texels(values, vol.dims, spacing)?;
+        // Integer codes as the fractions of their range the shader reads.
+        let data = match vol.voxels {
+            Voxels::F32(v) => gradients::bordered_texels(|n| v[n], vol.dims, spacing),
+            Voxels::U8(v) => gradients::bordered_texels(|n| v[n] as f32 / 255.0, vol.dims, spacing),
+            Voxels::U16(v) => gradients::bordered_texels(|n| v[n] as f32 / 65535.0, vol.dims, spacing),
+        }?;
         let format = wgpu::TextureFormat::Rgba32Float;
         let mut gpu = Self::whole_texels(ctx, vol, big, format, bytemuck::cast_slice(&data), grid.clone(), true)?;
         gpu.normals_in_volume = true;
