@@ -54,6 +54,10 @@ def scene(kind):
         return Volume(d, None, *BOX), "float32", Light.ambient_only(0.9), ramp
     if kind == "values_fixed16":
         return Volume(d, None, *BOX), "fixed16", Light.ambient_only(0.9), ramp
+    if kind == "normals_float16":
+        return Volume(d, compute_normal_volume(d), *BOX), "float16", lit, ramp
+    if kind == "values_float16":
+        return Volume(d, None, *BOX), "float16", Light.ambient_only(0.9), ramp
     if kind == "values_uint8":
         return Volume(np.round(d * 255).astype(np.uint8), None, *BOX), "float32", Light.ambient_only(0.9), ramp
     if kind == "values_uint16":
@@ -73,8 +77,8 @@ def scene(kind):
     raise ValueError(kind)
 
 
-KINDS = ["normals_fixed16", "normals_float32", "gradients", "values_float32", "values_fixed16", "values_uint8",
-         "values_uint16", "plateau", "nan"]
+KINDS = ["normals_fixed16", "normals_float32", "normals_float16", "gradients", "values_float32", "values_fixed16",
+         "values_float16", "values_uint8", "values_uint16", "plateau", "nan"]
 OUTSIDE = Camera.from_spherical(np.zeros(3), 0.7, 0.4, 0.0, 3.0)
 INSIDE = Camera(target=np.array([-0.6, 0.2, 0.1]), azimuth=0.3, elevation=0.2, roll=0.0, distance=0.5)
 
@@ -312,11 +316,11 @@ def test_lit_integer_volumes_pack_their_gradients_for_the_native_march(dtype, co
     assert np.abs(r.render(dtype=np.float32, premultiplied=True) - out[0][0]).max() > 10 * LEVEL
 
 
-@pytest.mark.parametrize("precision", ["fixed16", "float32"])
+@pytest.mark.parametrize("precision", ["fixed16", "float16", "float32"])
 @pytest.mark.parametrize("light", ["directional", "point"])
 def test_native_gradients_from_central_differences_match_the_shader(precision, light):
-    # Values alone, lit, and not stored with their gradients (fixed16 never
-    # is; float32 here because they would pass a small memory budget): both
+    # Values alone, lit, and not stored with their gradients (fixed16 and
+    # float16 never are; float32 here because they would pass a small memory budget): both
     # engines take central differences of the interpolated values at each
     # lit sample. NaN voxels (float32 only) leave their neighbours' gradients
     # zero (ambient light).

@@ -119,27 +119,44 @@ impl Texels for Rgba16Snorm<'_> {
     #[inline]
     #[target_feature(enable = "avx2,fma")]
     unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4] {
-        let base = self.0.as_ptr() as *const i64;
-        // Lanes (0, 1, 4, 5) and (2, 3, 6, 7) are gathered apart, so that
-        // one shuffle of the two results' even (odd) 32-bit words puts each
-        // lane's (value, nx) ((ny, nz)) in lane order.
-        let order = _mm256_setr_epi32(0, 1, 4, 5, 2, 3, 6, 7);
-        let low = |x: __m256i| _mm256_cvtepi32_ps(_mm256_srai_epi32::<16>(_mm256_slli_epi32::<16>(x)));
-        let high = |x: __m256i| _mm256_cvtepi32_ps(_mm256_srai_epi32::<16>(x));
-        interpolate(offs, w, |o| {
-            let o = _mm256_permutevar8x32_epi32(o, order);
-            // SAFETY: offsets address texels (the caller's contract).
-            let (a, b) = unsafe {
-                (
-                    _mm256_castsi256_ps(_mm256_i32gather_epi64::<8>(base, _mm256_castsi256_si128(o))),
-                    _mm256_castsi256_ps(_mm256_i32gather_epi64::<8>(base, _mm256_extracti128_si256::<1>(o))),
-                )
-            };
-            let first = _mm256_castps_si256(_mm256_shuffle_ps::<0x88>(a, b));
-            let second = _mm256_castps_si256(_mm256_shuffle_ps::<0xDD>(a, b));
-            [low(first), high(first), low(second), high(second)]
-        })
+        let signed = |x| _mm256_cvtepi32_ps(_mm256_srai_epi32::<16>(_mm256_slli_epi32::<16>(x)));
+        // SAFETY: offsets address texels (the caller's contract).
+        unsafe { quad_halves(self.0.as_ptr() as *const i64, offs, w, signed) }
     }
+}
+
+/// The trilinear four channels of texels of four 16-bit words, each
+/// corner's read by one 64-bit gather of four lanes' texels and each word,
+/// in the low half of a 32-bit lane, made a float by `channel`.
+///
+/// # Safety
+/// The offsets address texels.
+#[inline]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn quad_halves(
+    base: *const i64,
+    offs: &[[__m256i; 2]; 3],
+    w: &[__m256; 3],
+    channel: impl Fn(__m256i) -> __m256,
+) -> [__m256; 4] {
+    // Lanes (0, 1, 4, 5) and (2, 3, 6, 7) are gathered apart, so that
+    // one shuffle of the two results' even (odd) 32-bit words puts each
+    // lane's first and second (third and fourth) words in lane order.
+    let order = _mm256_setr_epi32(0, 1, 4, 5, 2, 3, 6, 7);
+    interpolate(offs, w, |o| {
+        let o = _mm256_permutevar8x32_epi32(o, order);
+        // SAFETY: the caller's contract.
+        let (a, b) = unsafe {
+            (
+                _mm256_castsi256_ps(_mm256_i32gather_epi64::<8>(base, _mm256_castsi256_si128(o))),
+                _mm256_castsi256_ps(_mm256_i32gather_epi64::<8>(base, _mm256_extracti128_si256::<1>(o))),
+            )
+        };
+        let first = _mm256_castps_si256(_mm256_shuffle_ps::<0x88>(a, b));
+        let second = _mm256_castps_si256(_mm256_shuffle_ps::<0xDD>(a, b));
+        let high = |x| _mm256_srli_epi32::<16>(x);
+        [channel(first), channel(high(first)), channel(second), channel(high(second))]
+    })
 }
 
 pub struct R32Float<'a>(pub &'a [f32]);
@@ -162,7 +179,7 @@ impl Texels for R32Float<'_> {
 }
 
 /// The trilinear value of codes `SCALE` bytes wide, each read as the low
-/// bits of the 32-bit word at its offset and taken out of it by `code`.
+/// bits of the 32-bit word at its offset and made a float by `code`.
 ///
 /// # Safety
 /// The offsets address texels, and 4 - SCALE bytes follow the last.
@@ -172,10 +189,10 @@ unsafe fn word_codes<const SCALE: i32>(
     base: *const i32,
     offs: &[[__m256i; 2]; 3],
     w: &[__m256; 3],
-    code: impl Fn(__m256i) -> __m256i,
+    code: impl Fn(__m256i) -> __m256,
 ) -> [__m256; 4] {
     // SAFETY: the caller's contract.
-    let [v] = interpolate(offs, w, |o| [_mm256_cvtepi32_ps(code(unsafe { _mm256_i32gather_epi32::<SCALE>(base, o) }))]);
+    let [v] = interpolate(offs, w, |o| [code(unsafe { _mm256_i32gather_epi32::<SCALE>(base, o) })]);
     value_only(v)
 }
 
@@ -193,7 +210,7 @@ impl Texels for R16Snorm<'_> {
     #[inline]
     #[target_feature(enable = "avx2,fma")]
     unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4] {
-        let signed = |x| _mm256_srai_epi32::<16>(_mm256_slli_epi32::<16>(x));
+        let signed = |x| _mm256_cvtepi32_ps(_mm256_srai_epi32::<16>(_mm256_slli_epi32::<16>(x)));
         // SAFETY: offsets address texels, and one code follows the last.
         unsafe { word_codes::<2>(self.0.as_ptr() as *const i32, offs, w, signed) }
     }
@@ -213,7 +230,7 @@ impl Texels for R8Unorm<'_> {
     #[inline]
     #[target_feature(enable = "avx2,fma")]
     unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4] {
-        let byte = |x| _mm256_and_si256(x, _mm256_set1_epi32(0xff));
+        let byte = |x| _mm256_cvtepi32_ps(_mm256_and_si256(x, _mm256_set1_epi32(0xff)));
         // SAFETY: offsets address texels, and three bytes follow the last.
         unsafe { word_codes::<1>(self.0.as_ptr() as *const i32, offs, w, byte) }
     }
@@ -233,9 +250,65 @@ impl Texels for R16Unorm<'_> {
     #[inline]
     #[target_feature(enable = "avx2,fma")]
     unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4] {
-        let half = |x| _mm256_and_si256(x, _mm256_set1_epi32(0xffff));
+        let half = |x| _mm256_cvtepi32_ps(_mm256_and_si256(x, _mm256_set1_epi32(0xffff)));
         // SAFETY: offsets address texels, and one code follows the last.
         unsafe { word_codes::<2>(self.0.as_ptr() as *const i32, offs, w, half) }
+    }
+}
+
+/// The binary16 floats in the low halves of `x`'s 32-bit lanes, exactly
+/// (subnormal, infinite and NaN ones too). The magnitude's bits moved into
+/// a binary32's place read as 2^-112 times the value: normal and subnormal
+/// halves are scaled back by one multiplication (an operand, not a result,
+/// is subnormal there, which flush-to-zero leaves alone); infinities and
+/// NaNs, whose exponent is all ones, take binary32's.
+#[inline]
+#[target_feature(enable = "avx2,fma")]
+fn half_floats(x: __m256i) -> __m256 {
+    let magnitude = _mm256_and_si256(x, _mm256_set1_epi32(0x7fff));
+    let sign = _mm256_slli_epi32::<16>(_mm256_and_si256(x, _mm256_set1_epi32(0x8000)));
+    let moved = _mm256_slli_epi32::<13>(magnitude);
+    let finite = _mm256_mul_ps(_mm256_castsi256_ps(moved), _mm256_castsi256_ps(_mm256_set1_epi32(0x7780_0000)));
+    let special = _mm256_castsi256_ps(_mm256_or_si256(moved, _mm256_set1_epi32(0x7f80_0000)));
+    let all_ones = _mm256_castsi256_ps(_mm256_cmpgt_epi32(magnitude, _mm256_set1_epi32(0x7bff)));
+    _mm256_or_ps(_mm256_blendv_ps(finite, special, all_ones), _mm256_castsi256_ps(sign))
+}
+
+/// binary16 values read as the low halves of 32-bit words (the storage
+/// holds one value past the last texel).
+pub struct R16Float<'a>(pub &'a [u16]);
+
+impl Texels for R16Float<'_> {
+    const PER_TEXEL: usize = 1;
+    const VALUE_UNIT: f32 = 1.0;
+    const UNIT_BYTES: usize = 2;
+    fn base(&self) -> *const u8 {
+        self.0.as_ptr() as *const u8
+    }
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4] {
+        // SAFETY: offsets address texels, and one value follows the last.
+        unsafe { word_codes::<2>(self.0.as_ptr() as *const i32, offs, w, |x| half_floats(x)) }
+    }
+}
+
+/// (value, normal) in binary16: one 64-bit gather of four lanes' texels
+/// reads a corner's four channels, as `Rgba16Snorm`.
+pub struct Rgba16Float<'a>(pub &'a [[u16; 4]]);
+
+impl Texels for Rgba16Float<'_> {
+    const PER_TEXEL: usize = 1;
+    const VALUE_UNIT: f32 = 1.0;
+    const UNIT_BYTES: usize = 8;
+    fn base(&self) -> *const u8 {
+        self.0.as_ptr() as *const u8
+    }
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4] {
+        // SAFETY: offsets address texels (the caller's contract).
+        unsafe { quad_halves(self.0.as_ptr() as *const i64, offs, w, |x| half_floats(x)) }
     }
 }
 
@@ -1171,6 +1244,43 @@ mod tests {
         // 2 MiB of texels stay in the caches; 16 MiB do not.
         assert!(!prefetch_for(4.0, 0xff, 8, [64, 64, 64]));
         assert!(prefetch_for(4.0, 0xff, 8, [128, 128, 128]));
+    }
+
+    #[test]
+    fn half_floats_read_every_binary16_exactly() {
+        if !(is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma")) {
+            return;
+        }
+        // As the march's workers run: subnormal results flushed.
+        super::super::set_flush_to_zero();
+        let codes: Vec<i32> = (0..=0xffff).collect();
+        for chunk in codes.chunks(8) {
+            // A junk upper half, as a 32-bit read of a code next to another has.
+            let words: Vec<i32> = chunk.iter().map(|&c| c | 0x5a5a_0000).collect();
+            let mut out = [0.0f32; 8];
+            // SAFETY: AVX2 and FMA are available.
+            unsafe {
+                let x = _mm256_loadu_si256(words.as_ptr() as *const __m256i);
+                _mm256_storeu_ps(out.as_mut_ptr(), half_floats(x));
+            }
+            for (&c, &got) in chunk.iter().zip(&out) {
+                // IEEE 754 binary16: sign, 5 exponent bits (bias 15), 10 fraction bits.
+                let (e, m) = ((c >> 10) & 0x1f, (c & 0x3ff) as f64);
+                let sign = if c & 0x8000 != 0 { -1.0 } else { 1.0 };
+                let want = match e {
+                    0 => sign * m * 2f64.powi(-24),
+                    31 if m == 0.0 => sign * f64::INFINITY,
+                    31 => f64::NAN,
+                    _ => sign * (1.0 + m / 1024.0) * 2f64.powi(e - 15),
+                };
+                if want.is_nan() {
+                    assert!(got.is_nan(), "{c:#06x}: {got}");
+                } else {
+                    assert_eq!(got as f64, want, "{c:#06x}");
+                    assert_eq!(got.is_sign_negative(), sign < 0.0, "{c:#06x}: sign");
+                }
+            }
+        }
     }
 
     #[test]

@@ -48,6 +48,10 @@ pub enum Texels {
     R8Unorm(Vec<u8>),
     /// 16-bit codes, and one more past the last.
     R16Unorm(Vec<u16>),
+    /// binary16 values, and one more past the last.
+    R16Float(Vec<u16>),
+    /// (value, unit normal or gradient) in binary16.
+    Rgba16Float(Vec<[u16; 4]>),
 }
 
 impl Texels {
@@ -60,6 +64,8 @@ impl Texels {
             Texels::R16Snorm(t) => t.len() > n,
             Texels::R8Unorm(t) => t.len() >= n + 3,
             Texels::R16Unorm(t) => t.len() > n,
+            Texels::R16Float(t) => t.len() > n,
+            Texels::Rgba16Float(t) => t.len() >= n,
         }
     }
 }
@@ -93,6 +99,14 @@ macro_rules! with_reader {
                 let $t = &avx2::R16Unorm(x);
                 $call
             }
+            Texels::R16Float(x) => {
+                let $t = &avx2::R16Float(x);
+                $call
+            }
+            Texels::Rgba16Float(x) => {
+                let $t = &avx2::Rgba16Float(x);
+                $call
+            }
         }
     };
 }
@@ -106,7 +120,7 @@ pub struct CpuVolume {
 impl CpuVolume {
     /// Whether each texel holds a normal (or gradient) beside its value.
     pub fn has_normals(&self) -> bool {
-        matches!(self.texels, Texels::Rgba32Float(_) | Texels::Rgba16Snorm(_))
+        matches!(self.texels, Texels::Rgba32Float(_) | Texels::Rgba16Snorm(_) | Texels::Rgba16Float(_))
     }
 }
 
