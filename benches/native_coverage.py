@@ -1,7 +1,8 @@
 """Frames the native march took over from the shader later than the
 benchmark frame of benches/native_march.py: back-to-front order, the power
 opacity correction, single scattering's shadow rays, gradients taken from
-central differences at each lit sample, float16 texels, and 8-bit volumes
+central differences at each lit sample, float16 values, float32 texels
+holding normals, and 8-bit volumes
 kept as 8-bit codes (fuel.vti's own storage, and the benchmark's double
 sphere quantised to it), or lit from their gradients, which the native
 march's renderer stores beside the values. Each frame is
@@ -53,10 +54,13 @@ def cases(size):
          renderer(Volume(ds, compute_normal_volume(ds), *BOX), Light.default(),
                   OpacityTransferFunction.linear(0.0, 0.1), size), balanced.replace(order="back_to_front")),
         ("benchmark scene, power correction", None, balanced.replace(opacity_correction="power")),
-        # float16 texels, (value, normal) in 8 bytes.
-        ("benchmark scene as float16",
+        ("double sphere 256^3 as float16, unlit",
+         renderer(Volume(ds, None, *BOX), Light.ambient_only(1.0), OpacityTransferFunction.linear(0.0, 0.1), size,
+                  precision="float16"), balanced),
+        # (value, normal) texels in float32: read a ray at a time.
+        ("benchmark scene stored as float32",
          renderer(Volume(ds, compute_normal_volume(ds), *BOX), Light.default(),
-                  OpacityTransferFunction.linear(0.0, 0.1), size, precision="float16"), balanced),
+                  OpacityTransferFunction.linear(0.0, 0.1), size, precision="float32"), balanced),
         ("double sphere 256^3 as uint8, unlit",
          renderer(Volume(np.round(ds * 255).astype(np.uint8), None, *BOX), Light.ambient_only(1.0),
                   OpacityTransferFunction.linear(0.0, 0.1), size), balanced),

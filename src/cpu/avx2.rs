@@ -148,44 +148,27 @@ impl Texels for Rgba16Snorm<'_> {
     #[inline]
     #[target_feature(enable = "avx2,fma")]
     unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4] {
-        let signed = |x| _mm256_cvtepi32_ps(_mm256_srai_epi32::<16>(_mm256_slli_epi32::<16>(x)));
-        // SAFETY: offsets address texels (the caller's contract).
-        unsafe { quad_halves(self.0.as_ptr() as *const i64, offs, w, signed) }
+        let base = self.0.as_ptr() as *const i64;
+        // Lanes (0, 1, 4, 5) and (2, 3, 6, 7) are gathered apart, so that
+        // one shuffle of the two results' even (odd) 32-bit words puts each
+        // lane's (value, nx) ((ny, nz)) in lane order.
+        let order = _mm256_setr_epi32(0, 1, 4, 5, 2, 3, 6, 7);
+        let low = |x: __m256i| _mm256_cvtepi32_ps(_mm256_srai_epi32::<16>(_mm256_slli_epi32::<16>(x)));
+        let high = |x: __m256i| _mm256_cvtepi32_ps(_mm256_srai_epi32::<16>(x));
+        interpolate(offs, w, |o| {
+            let o = _mm256_permutevar8x32_epi32(o, order);
+            // SAFETY: offsets address texels (the caller's contract).
+            let (a, b) = unsafe {
+                (
+                    _mm256_castsi256_ps(_mm256_i32gather_epi64::<8>(base, _mm256_castsi256_si128(o))),
+                    _mm256_castsi256_ps(_mm256_i32gather_epi64::<8>(base, _mm256_extracti128_si256::<1>(o))),
+                )
+            };
+            let first = _mm256_castps_si256(_mm256_shuffle_ps::<0x88>(a, b));
+            let second = _mm256_castps_si256(_mm256_shuffle_ps::<0xDD>(a, b));
+            [low(first), high(first), low(second), high(second)]
+        })
     }
-}
-
-/// The trilinear four channels of texels of four 16-bit words, each
-/// corner's read by one 64-bit gather of four lanes' texels and each word,
-/// in the low half of a 32-bit lane, made a float by `channel`.
-///
-/// # Safety
-/// The offsets address texels.
-#[inline]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn quad_halves(
-    base: *const i64,
-    offs: &[[__m256i; 2]; 3],
-    w: &[__m256; 3],
-    channel: impl Fn(__m256i) -> __m256,
-) -> [__m256; 4] {
-    // Lanes (0, 1, 4, 5) and (2, 3, 6, 7) are gathered apart, so that
-    // one shuffle of the two results' even (odd) 32-bit words puts each
-    // lane's first and second (third and fourth) words in lane order.
-    let order = _mm256_setr_epi32(0, 1, 4, 5, 2, 3, 6, 7);
-    interpolate(offs, w, |o| {
-        let o = _mm256_permutevar8x32_epi32(o, order);
-        // SAFETY: the caller's contract.
-        let (a, b) = unsafe {
-            (
-                _mm256_castsi256_ps(_mm256_i32gather_epi64::<8>(base, _mm256_castsi256_si128(o))),
-                _mm256_castsi256_ps(_mm256_i32gather_epi64::<8>(base, _mm256_extracti128_si256::<1>(o))),
-            )
-        };
-        let first = _mm256_castps_si256(_mm256_shuffle_ps::<0x88>(a, b));
-        let second = _mm256_castps_si256(_mm256_shuffle_ps::<0xDD>(a, b));
-        let high = |x| _mm256_srli_epi32::<16>(x);
-        [channel(first), channel(high(first)), channel(second), channel(high(second))]
-    })
 }
 
 pub struct R32Float<'a>(pub &'a [f32]);
@@ -292,7 +275,8 @@ impl Texels for R16Unorm<'_> {
 /// its fraction times 2^-24; infinities and NaNs take binary32's all-ones
 /// exponent. (Moving a subnormal half's bits makes a subnormal binary32,
 /// and a product reading one takes a microcode assist: the benchmark
-/// scene's frame, whose values fall smoothly to 0, ran 2.5x slower so.)
+/// scene as float16 with normals, whose values fall smoothly to 0, took
+/// 582 ms a frame so, against 503-511.)
 #[inline]
 #[target_feature(enable = "avx2,fma")]
 fn half_floats(x: __m256i) -> __m256 {
@@ -325,25 +309,6 @@ impl Texels for R16Float<'_> {
     unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4] {
         // SAFETY: offsets address texels, and one value follows the last.
         unsafe { word_codes::<2>(self.0.as_ptr() as *const i32, offs, w, |x| half_floats(x)) }
-    }
-}
-
-/// (value, normal) in binary16: one 64-bit gather of four lanes' texels
-/// reads a corner's four channels, as `Rgba16Snorm`.
-pub struct Rgba16Float<'a>(pub &'a [[u16; 4]]);
-
-impl Texels for Rgba16Float<'_> {
-    const PER_TEXEL: usize = 1;
-    const VALUE_UNIT: f32 = 1.0;
-    const UNIT_BYTES: usize = 8;
-    fn base(&self) -> *const u8 {
-        self.0.as_ptr() as *const u8
-    }
-    #[inline]
-    #[target_feature(enable = "avx2,fma")]
-    unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4] {
-        // SAFETY: offsets address texels (the caller's contract).
-        unsafe { quad_halves(self.0.as_ptr() as *const i64, offs, w, |x| half_floats(x)) }
     }
 }
 

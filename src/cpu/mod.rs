@@ -50,8 +50,6 @@ pub enum Texels {
     R16Unorm(Vec<u16>),
     /// binary16 values, and one more past the last.
     R16Float(Vec<u16>),
-    /// (value, unit normal or gradient) in binary16.
-    Rgba16Float(Vec<[u16; 4]>),
 }
 
 impl Texels {
@@ -65,7 +63,6 @@ impl Texels {
             Texels::R8Unorm(t) => t.len() >= n + 3,
             Texels::R16Unorm(t) => t.len() > n,
             Texels::R16Float(t) => t.len() > n,
-            Texels::Rgba16Float(t) => t.len() >= n,
         }
     }
 }
@@ -103,10 +100,6 @@ macro_rules! with_reader {
                 let $t = &avx2::R16Float(x);
                 $call
             }
-            Texels::Rgba16Float(x) => {
-                let $t = &avx2::Rgba16Float(x);
-                $call
-            }
         }
     };
 }
@@ -120,7 +113,7 @@ pub struct CpuVolume {
 impl CpuVolume {
     /// Whether each texel holds a normal (or gradient) beside its value.
     pub fn has_normals(&self) -> bool {
-        matches!(self.texels, Texels::Rgba32Float(_) | Texels::Rgba16Snorm(_) | Texels::Rgba16Float(_))
+        matches!(self.texels, Texels::Rgba32Float(_) | Texels::Rgba16Snorm(_))
     }
 }
 
