@@ -1,11 +1,11 @@
 """Frames the native march took over from the shader later than the
 benchmark frame of benches/native_march.py: back-to-front order, the power
 opacity correction, single scattering's shadow rays, gradients taken from
-central differences at each lit sample, float16 values, float32 texels
-holding normals, and 8-bit volumes
+central differences at each lit sample, float16 values, and 8-bit volumes
 kept as 8-bit codes (fuel.vti's own storage, and the benchmark's double
 sphere quantised to it), or lit from their gradients, which the native
-march's renderer stores beside the values. Each frame is
+march's renderer stores beside the values; and the benchmark scene stored
+as float32 (value, normal) texels, which the march reads a ray at a time. Each frame is
 rendered by the shader and by the native march alternately in one process
 (`VolumeRenderer.native_march` off and on), and compared by median time and
 by the largest difference between their premultiplied images.
