@@ -320,7 +320,7 @@ def test_native_gradients_from_central_differences_match_the_shader(precision, l
     # Values alone, lit, and not stored with their gradients (fixed16 and
     # float16 never are; float32 here because they would pass a small memory budget): both
     # engines take central differences of the interpolated values at each
-    # lit sample. NaN voxels (float32 only) leave their neighbours' gradients
+    # lit sample, and at the isosurface's hit. NaN voxels (float32 only) leave their neighbours' gradients
     # zero (ambient light).
     d = sphere_pair()
     if precision == "float32":
@@ -330,7 +330,8 @@ def test_native_gradients_from_central_differences_match_the_shader(precision, l
     r = VolumeRenderer(72, 64, config=RenderConfig.balanced(), light=lights[light], memory_budget=1 << 20)
     r.load_volume(Volume(d, None, *BOX), precision=precision)
     r.set_transfer_functions(ColorTransferFunction.from_colormap("viridis"), OpacityTransferFunction.linear(0.0, 0.4))
-    for changes in ({}, {"pre_integrated": True, "step_size": 0.03}, {"model": "emission"}):
+    for changes in ({}, {"pre_integrated": True, "step_size": 0.03}, {"model": "emission"},
+                    {"model": "isosurface", "iso_value": 0.45}):
         for cam in (OUTSIDE, INSIDE):
             r.set_camera(cam)
             where = f"{precision}, {light}, {changes}, {'outside' if cam is OUTSIDE else 'inside'}"

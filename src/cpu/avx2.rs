@@ -621,31 +621,7 @@ pub unsafe fn march<T: Texels>(
         });
         transpose_rays(&rays)
     };
-    // (value, gradient) at voxel coordinates u from central differences one
-    // voxel apart of the interpolated values (sampling.wgsl `gradient`:
-    // zero where one is NaN, scaled by its largest component, then by the
-    // spacings), for volumes lit without stored normals or gradients.
-    let inv_two_spacing: [__m256; 3] = std::array::from_fn(|k| _mm256_set1_ps(p.inv_two_spacing[k]));
-    let gradient_at = |u: &[__m256; 3], value: __m256| -> [__m256; 4] {
-        let set = _mm256_set1_ps;
-        let g: [__m256; 3] = std::array::from_fn(|k| {
-            let (mut up, mut down) = (*u, *u);
-            up[k] = _mm256_add_ps(up[k], one);
-            down[k] = _mm256_sub_ps(down[k], one);
-            let ((ou, wu), (od, wd)) = (corners(&up, &hi, &stride), corners(&down, &hi, &stride));
-            _mm256_sub_ps(tex.trilinear(&ou, &wu)[0], tex.trilinear(&od, &wd)[0])
-        });
-        let ordered = _mm256_and_ps(
-            _mm256_cmp_ps::<_CMP_ORD_Q>(g[0], g[1]),
-            _mm256_cmp_ps::<_CMP_ORD_Q>(g[2], g[2]),
-        );
-        let m = _mm256_max_ps(_mm256_max_ps(abs(g[0]), abs(g[1])), abs(g[2]));
-        let some = _mm256_and_ps(ordered, _mm256_cmp_ps::<_CMP_GT_OQ>(m, zero));
-        let s = _mm256_blendv_ps(one, set(5.421010862e-20), _mm256_cmp_ps::<_CMP_GT_OQ>(m, set(1.0e30)));
-        let ms = _mm256_mul_ps(_mm256_blendv_ps(one, m, some), s);
-        let n = |k: usize| _mm256_and_ps(_mm256_mul_ps(_mm256_div_ps(_mm256_mul_ps(g[k], s), ms), inv_two_spacing[k]), some);
-        [value, n(0), n(1), n(2)]
-    };
+    let gradient_at = |u: &[__m256; 3], value: __m256| gradient_at(tex, p, u, value, &hi, &stride);
     // The opacity alone, as lut_entry interpolates it (two gathers).
     let lut_alpha = |v: __m256| -> __m256 {
         let xl = _mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(v, zero), one), lut_scale);
@@ -1161,6 +1137,46 @@ pub unsafe fn march<T: Texels>(
         out[l] = [lanes_out[0][l], lanes_out[1][l], lanes_out[2][l], alpha];
     }
     stats
+}
+
+/// (value, gradient) at voxel coordinates `u` from central differences one
+/// voxel apart of the interpolated values (sampling.wgsl `gradient`: zero
+/// where one is NaN, scaled by its largest component, then by the
+/// spacings), for volumes lit without stored normals or gradients; `hi`
+/// and `stride` as for `corners`.
+///
+/// # Safety
+/// Needs AVX2 and FMA, and `tex` the padding its reads need.
+#[inline]
+#[target_feature(enable = "avx2,fma")]
+pub(super) unsafe fn gradient_at<T: Texels>(
+    tex: &T,
+    p: &Params,
+    u: &[__m256; 3],
+    value: __m256,
+    hi: &[__m256i; 3],
+    stride: &[__m256i; 3],
+) -> [__m256; 4] {
+    let set = _mm256_set1_ps;
+    let (zero, one) = (_mm256_setzero_ps(), set(1.0));
+    let g: [__m256; 3] = std::array::from_fn(|k| {
+        let (mut up, mut down) = (*u, *u);
+        up[k] = _mm256_add_ps(up[k], one);
+        down[k] = _mm256_sub_ps(down[k], one);
+        let ((ou, wu), (od, wd)) = (corners(&up, hi, stride), corners(&down, hi, stride));
+        // SAFETY: the offsets are clamped into the texture.
+        unsafe { _mm256_sub_ps(tex.trilinear(&ou, &wu)[0], tex.trilinear(&od, &wd)[0]) }
+    });
+    let ordered = _mm256_and_ps(_mm256_cmp_ps::<_CMP_ORD_Q>(g[0], g[1]), _mm256_cmp_ps::<_CMP_ORD_Q>(g[2], g[2]));
+    let m = _mm256_max_ps(_mm256_max_ps(abs(g[0]), abs(g[1])), abs(g[2]));
+    let some = _mm256_and_ps(ordered, _mm256_cmp_ps::<_CMP_GT_OQ>(m, zero));
+    let s = _mm256_blendv_ps(one, set(5.421010862e-20), _mm256_cmp_ps::<_CMP_GT_OQ>(m, set(1.0e30)));
+    let ms = _mm256_mul_ps(_mm256_blendv_ps(one, m, some), s);
+    let n = |k: usize| {
+        let unit = _mm256_div_ps(_mm256_mul_ps(g[k], s), ms);
+        _mm256_and_ps(_mm256_mul_ps(unit, set(p.inv_two_spacing[k])), some)
+    };
+    [value, n(0), n(1), n(2)]
 }
 
 /// Bytes of texels between the samples of neighbouring rays from which the

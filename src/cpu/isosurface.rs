@@ -3,10 +3,11 @@
 //! segment's midpoint and its exit for the first value at or above the iso
 //! value (NaN counts as below), leap the cells whose values cannot reach it,
 //! bracket the crossing by bisection, place it by a secant step, and shade
-//! it from the normal held in the texel there (under a directional or a
-//! point light).
+//! it from the normal held in the texel there, or from the field's gradient
+//! (central differences) where the texels hold none (under a directional
+//! or a point light).
 
-use super::avx2::{corners, int_lanes, lanes, lit_by, point_light_travel, voxel_axes, Spans, Texels};
+use super::avx2::{corners, gradient_at, int_lanes, lanes, lit_by, point_light_travel, voxel_axes, Spans, Texels};
 use super::{Frame, Stats, CELL, TILE};
 use crate::gpu::shader::ISO_BISECTIONS;
 use std::arch::x86_64::*;
@@ -46,9 +47,9 @@ pub unsafe fn iso<T: Texels>(
     // `value_prescale` is left out: the caller joins a split scale into `value_scale`.
     let (value_scale, value_offset) = (set(p.value_scale * T::VALUE_UNIT), set(p.value_offset));
     let iso_value = set(p.iso_value);
+    let coords = |at: __m256| -> [__m256; 3] { std::array::from_fn(|k| _mm256_fmadd_ps(per[k], at, start[k])) };
     let texel_at = |at: __m256| -> [__m256; 4] {
-        let u: [__m256; 3] = std::array::from_fn(|k| _mm256_fmadd_ps(per[k], at, start[k]));
-        let (offs, w) = corners(&u, &hi, &stride);
+        let (offs, w) = corners(&coords(at), &hi, &stride);
         // SAFETY: the offsets are clamped into the texture.
         unsafe { tex.trilinear(&offs, &w) }
     };
@@ -179,13 +180,22 @@ pub unsafe fn iso<T: Texels>(
         }
     }
 
-    // isosurface.wgsl `shade_hit`: the table's colour at the iso value, lit at the hit.
+    // isosurface.wgsl `shade_hit`: the table's colour at the iso value, lit
+    // at the hit by the texel's normal or the field's gradient there.
+    let normal_at = |at: __m256| {
+        if f.gradient {
+            // SAFETY: the texels hold the padding their reads need (the caller's contract).
+            unsafe { gradient_at(tex, p, &coords(at), zero, &hi, &stride) }
+        } else {
+            texel_at(at)
+        }
+    };
     let light = if f.lit && f.point_light {
         let (travel, defined) = point_light_travel(p, &rays, hit_at);
-        _mm256_blendv_ps(set(p.ambient), lit_by(&texel_at(hit_at), &travel, set(p.ambient), set(p.diffuse)), defined)
+        _mm256_blendv_ps(set(p.ambient), lit_by(&normal_at(hit_at), &travel, set(p.ambient), set(p.diffuse)), defined)
     } else if f.lit && p.light_valid == 1 {
         let light_dir: [__m256; 3] = std::array::from_fn(|k| set(p.light_dir[k]));
-        lit_by(&texel_at(hit_at), &light_dir, set(p.ambient), set(p.diffuse))
+        lit_by(&normal_at(hit_at), &light_dir, set(p.ambient), set(p.diffuse))
     } else {
         set(p.ambient)
     };

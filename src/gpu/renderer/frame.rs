@@ -91,8 +91,8 @@ impl GpuRenderer {
             || match variant.shading {
                 Shading::AmbientOnly => true,
                 Shading::Normals => variant.layout.normals_in_volume && cpu.has_normals(),
-                // From central differences of the values (the isosurface reads texels' normals).
-                Shading::Gradient => composites,
+                // From central differences of the values.
+                Shading::Gradient => composites || iso,
             };
         // Back-to-front frames (whose variant never stops early) are marched
         // front to back: the same segments and the same sum, rounded in
