@@ -198,10 +198,35 @@ impl Texels for R32Float<'_> {
     #[inline]
     #[target_feature(enable = "avx2,fma")]
     unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4] {
-        let base = self.0.as_ptr();
-        // SAFETY: offsets address texels (the caller's contract).
-        let [v] = interpolate(offs, w, |o| [unsafe { _mm256_i32gather_ps::<4>(base, o) }]);
-        value_only(v)
+        // Each ray's two corners along the last axis lie side by side: one
+        // 64-bit gather element a pair, half the elements of a gather a
+        // corner. Lanes (0, 1, 4, 5) and (2, 3, 6, 7) are gathered apart, so
+        // that one shuffle of the two results' even (odd) words puts the
+        // lower (upper) corners in lane order.
+        let base = self.0.as_ptr() as *const f64;
+        let order = _mm256_setr_epi32(0, 1, 4, 5, 2, 3, 6, 7);
+        // Where the upper corner is clamped onto the lower, the pair's
+        // second word is the next texel's (the storage holds one past the
+        // last): the lower one stands for both.
+        let clamped = _mm256_castsi256_ps(_mm256_cmpeq_epi32(offs[2][0], offs[2][1]));
+        let pair = |o: __m256i| -> (__m256, __m256) {
+            let o = _mm256_permutevar8x32_epi32(o, order);
+            // SAFETY: offsets address texels, and one follows the last (the caller's contract).
+            let (a, b) = unsafe {
+                (
+                    _mm256_castpd_ps(_mm256_i32gather_pd::<4>(base, _mm256_castsi256_si128(o))),
+                    _mm256_castpd_ps(_mm256_i32gather_pd::<4>(base, _mm256_extracti128_si256::<1>(o))),
+                )
+            };
+            let lower = _mm256_shuffle_ps::<0x88>(a, b);
+            (lower, _mm256_blendv_ps(_mm256_shuffle_ps::<0xDD>(a, b), lower, clamped))
+        };
+        let row = |o0: __m256i, o1: __m256i| {
+            let (z0, z1) = pair(_mm256_add_epi32(_mm256_add_epi32(o0, o1), offs[2][0]));
+            lerp(z0, z1, w[2])
+        };
+        let plane = |o0: __m256i| lerp(row(o0, offs[1][0]), row(o0, offs[1][1]), w[1]);
+        value_only(lerp(plane(offs[0][0]), plane(offs[0][1]), w[0]))
     }
 }
 

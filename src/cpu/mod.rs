@@ -40,6 +40,8 @@ pub enum Texels {
     Rgba32Float(Vec<[f32; 4]>),
     /// (value code, unit normal codes) in 16-bit fixed point.
     Rgba16Snorm(Vec<[i16; 4]>),
+    /// Values, and one more past the last so that every value can be read
+    /// with the next along the last axis.
     R32Float(Vec<f32>),
     /// Value codes, and one more past the last so that every code can be
     /// read as the low half of a 32-bit word.
@@ -58,7 +60,7 @@ impl Texels {
         match self {
             Texels::Rgba32Float(t) => t.len() >= n,
             Texels::Rgba16Snorm(t) => t.len() >= n,
-            Texels::R32Float(t) => t.len() >= n,
+            Texels::R32Float(t) => t.len() > n,
             Texels::R16Snorm(t) => t.len() > n,
             Texels::R8Unorm(t) => t.len() >= n + 3,
             Texels::R16Unorm(t) => t.len() > n,

@@ -84,7 +84,7 @@ fn cpu_copy(
         }
         wgpu::TextureFormat::Rgba16Snorm => Texels::Rgba16Snorm(copied(bytes, 0)?),
         wgpu::TextureFormat::R32Float => {
-            let mut t: Vec<f32> = copied(bytes, 0)?;
+            let mut t: Vec<f32> = copied(bytes, 1)?;
             flush_subnormals(&mut t);
             Texels::R32Float(t)
         }
