@@ -5,7 +5,8 @@ central differences at each lit sample, float16 values, and 8-bit volumes
 kept as 8-bit codes (fuel.vti's own storage, and the benchmark's double
 sphere quantised to it), or lit from their gradients, which the native
 march's renderer stores beside the values; and the benchmark scene stored
-as float32 (value, normal) texels, which the march reads a ray at a time. Each frame is
+as float16 and float32 (value, normal) texels, which the march reads a ray
+at a time. Each frame is
 rendered by the shader and by the native march alternately in one process
 (`VolumeRenderer.native_march` off and on), and compared by median time and
 by the largest difference between their premultiplied images.
@@ -57,7 +58,10 @@ def cases(size):
         ("double sphere 256^3 as float16, unlit",
          renderer(Volume(ds, None, *BOX), Light.ambient_only(1.0), OpacityTransferFunction.linear(0.0, 0.1), size,
                   precision="float16"), balanced),
-        # (value, normal) texels in float32: read a ray at a time.
+        # (value, normal) texels in float32 and in float16: read a ray at a time.
+        ("benchmark scene stored as float16",
+         renderer(Volume(ds, compute_normal_volume(ds), *BOX), Light.default(),
+                  OpacityTransferFunction.linear(0.0, 0.1), size, precision="float16"), balanced),
         ("benchmark scene stored as float32",
          renderer(Volume(ds, compute_normal_volume(ds), *BOX), Light.default(),
                   OpacityTransferFunction.linear(0.0, 0.1), size, precision="float32"), balanced),

@@ -94,7 +94,7 @@ fn main() {
         };
         row("shader", shader_ms, shader.samples, "\"-\"".into());
         if !stats.native {
-            println!("this machine does not run the native march (it needs a CPU adapter with AVX2 and FMA)");
+            println!("this machine does not run the native march (it needs a CPU adapter with AVX2, FMA and F16C)");
             continue;
         }
         let diff = img.iter().zip(&shader_img).map(|(a, b)| (a - b).abs() * 255.0).fold(0f32, f32::max);

@@ -1,5 +1,5 @@
 //! The native CPU march (src/cpu) renders the shader's frame: where the
-//! adapter is a CPU with AVX2 and FMA, each storage it reads and each kind
+//! adapter is a CPU with AVX2, FMA and F16C, each storage it reads and each kind
 //! of segment it takes, rendered both ways, agree within 0.25 level with
 //! the same samples (tests/test_native_march.py covers the options and
 //! scenes; this keeps `cargo test` on the native path too). Elsewhere the
@@ -60,7 +60,7 @@ fn the_native_march_renders_the_shaders_frame() {
         RenderConfig { model: Model::Isosurface, iso_value: 0.4, ..plain.clone() },
     ];
     let mut native_frames = 0;
-    for precision in [Precision::Float32, Precision::Fixed16] {
+    for precision in [Precision::Float32, Precision::Fixed16, Precision::Float16] {
         r.set_volume_with_precision(&vol, precision).unwrap();
         for cfg in &configs {
             r.set_lut(if cfg.model == Model::EmissionAbsorption { &lut } else { &opaque }).unwrap();
@@ -81,6 +81,6 @@ fn the_native_march_renders_the_shaders_frame() {
         }
     }
     if cpu_adapter && pyvr_core::cpu::available() {
-        assert_eq!(native_frames, 14);
+        assert_eq!(native_frames, 21);
     }
 }

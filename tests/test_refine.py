@@ -29,7 +29,7 @@ from pyvr.volume import Volume
 
 LEVELS = 255.0
 NATIVE = pytest.mark.skipif(not device_limits()["native_march"],
-                            reason="the native march runs only where the adapter is a CPU with AVX2 and FMA")
+                            reason="the native march runs only where the adapter is a CPU with AVX2, FMA and F16C")
 
 
 def helix_scene(lit=False):

@@ -872,7 +872,7 @@ class VolumeRenderer:
     @property
     def native_march(self) -> bool:
         """Where the only adapter is a CPU (wgpu on lavapipe) and it has
-        AVX2 and FMA, render the frames the native CPU march covers with it
+        AVX2, FMA and F16C, render the frames the native CPU march covers with it
         instead of the shader (default True; the environment variable
         ``PYVR_NATIVE_MARCH=0`` sets it off): emission-absorption (plain,
         pre-integrated or refined), single scattering, absorption and

@@ -25,21 +25,21 @@ pub trait Texels {
         numpy_strides(dims, Self::PER_TEXEL)
     }
     /// # Safety
-    /// Needs AVX2 and FMA; every offset must address a texel.
+    /// Needs AVX2, FMA and F16C; every offset must address a texel.
     unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4];
     /// The storage's first byte.
     fn base(&self) -> *const u8;
 }
 
 #[inline]
-#[target_feature(enable = "avx2,fma")]
+#[target_feature(enable = "avx2,fma,f16c")]
 fn lerp(x: __m256, y: __m256, t: __m256) -> __m256 {
     _mm256_fmadd_ps(_mm256_sub_ps(y, x), t, x)
 }
 
 /// Trilinear interpolation of channels read by `corner` at each corner's offset.
 #[inline]
-#[target_feature(enable = "avx2,fma")]
+#[target_feature(enable = "avx2,fma,f16c")]
 fn interpolate<const C: usize>(
     offs: &[[__m256i; 2]; 3],
     w: &[__m256; 3],
@@ -59,7 +59,7 @@ fn interpolate<const C: usize>(
 /// Eight rays' four channels, each ray's in a 128-bit register, as four
 /// registers of eight lanes (channel c of ray l in lane l of register c).
 #[inline]
-#[target_feature(enable = "avx2,fma")]
+#[target_feature(enable = "avx2,fma,f16c")]
 fn transpose_rays(rays: &[__m128; 8]) -> [__m256; 4] {
     // Rays l and l + 4 share a register, then a 4x4 transpose in each half.
     let r: [__m256; 4] = std::array::from_fn(|l| _mm256_set_m128(rays[l + 4], rays[l]));
@@ -75,7 +75,7 @@ fn transpose_rays(rays: &[__m128; 8]) -> [__m256; 4] {
 
 /// A value-only storage's texel: no normal.
 #[inline]
-#[target_feature(enable = "avx2,fma")]
+#[target_feature(enable = "avx2,fma,f16c")]
 fn value_only(v: __m256) -> [__m256; 4] {
     let zero = _mm256_setzero_ps();
     [v, zero, zero, zero]
@@ -95,7 +95,7 @@ impl Texels for Rgba32Float<'_> {
         self.0.as_ptr() as *const u8
     }
     #[inline]
-    #[target_feature(enable = "avx2,fma")]
+    #[target_feature(enable = "avx2,fma,f16c")]
     unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4] {
         // Each ray's two corners along the last axis lie side by side: one
         // 256-bit load a pair instead of 32 gathers (each of them ~8 loads).
@@ -128,7 +128,7 @@ impl Texels for Rgba16Snorm<'_> {
         self.0.as_ptr() as *const u8
     }
     #[inline]
-    #[target_feature(enable = "avx2,fma")]
+    #[target_feature(enable = "avx2,fma,f16c")]
     unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4] {
         let base = self.0.as_ptr() as *const i64;
         // Lanes (0, 1, 4, 5) and (2, 3, 6, 7) are gathered apart, so that
@@ -162,7 +162,7 @@ impl Texels for Rgba16Snorm<'_> {
 /// # Safety
 /// `pair` must read only texels the offsets address.
 #[inline]
-#[target_feature(enable = "avx2,fma")]
+#[target_feature(enable = "avx2,fma,f16c")]
 unsafe fn corner_pairs(
     offs: &[[__m256i; 2]; 3],
     w: &[__m256; 3],
@@ -196,7 +196,7 @@ impl Texels for R32Float<'_> {
         self.0.as_ptr() as *const u8
     }
     #[inline]
-    #[target_feature(enable = "avx2,fma")]
+    #[target_feature(enable = "avx2,fma,f16c")]
     unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4] {
         // Each ray's two corners along the last axis lie side by side: one
         // 64-bit gather element a pair, half the elements of a gather a
@@ -238,7 +238,7 @@ impl Texels for R32Float<'_> {
 /// # Safety
 /// The offsets address texels, and 4 - SCALE bytes follow the last.
 #[inline]
-#[target_feature(enable = "avx2,fma")]
+#[target_feature(enable = "avx2,fma,f16c")]
 unsafe fn word_codes<const SCALE: i32>(
     base: *const i32,
     offs: &[[__m256i; 2]; 3],
@@ -273,7 +273,7 @@ impl Texels for R16Snorm<'_> {
         self.0.as_ptr() as *const u8
     }
     #[inline]
-    #[target_feature(enable = "avx2,fma")]
+    #[target_feature(enable = "avx2,fma,f16c")]
     unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4] {
         let signed = |x| _mm256_cvtepi32_ps(_mm256_srai_epi32::<16>(_mm256_slli_epi32::<16>(x)));
         // SAFETY: offsets address texels, and one code follows the last.
@@ -293,7 +293,7 @@ impl Texels for R8Unorm<'_> {
         self.0.as_ptr()
     }
     #[inline]
-    #[target_feature(enable = "avx2,fma")]
+    #[target_feature(enable = "avx2,fma,f16c")]
     unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4] {
         let byte = |x| _mm256_cvtepi32_ps(_mm256_and_si256(x, _mm256_set1_epi32(0xff)));
         // SAFETY: offsets address texels, and three bytes follow the last.
@@ -313,7 +313,7 @@ impl Texels for R16Unorm<'_> {
         self.0.as_ptr() as *const u8
     }
     #[inline]
-    #[target_feature(enable = "avx2,fma")]
+    #[target_feature(enable = "avx2,fma,f16c")]
     unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4] {
         let half = |x| _mm256_cvtepi32_ps(_mm256_and_si256(x, _mm256_set1_epi32(0xffff)));
         // SAFETY: offsets address texels, and one code follows the last.
@@ -328,10 +328,10 @@ impl Texels for R16Unorm<'_> {
 /// its fraction times 2^-24; infinities and NaNs take binary32's all-ones
 /// exponent. (Moving a subnormal half's bits makes a subnormal binary32,
 /// and a product reading one takes a microcode assist: the benchmark
-/// scene as float16 with normals, whose values fall smoothly to 0, took
-/// 582 ms a frame so, against 503-511.)
+/// scene's float16 texels, whose values fall smoothly to 0, were read 14%
+/// slower so, 582 ms a frame against 503-511.)
 #[inline]
-#[target_feature(enable = "avx2,fma")]
+#[target_feature(enable = "avx2,fma,f16c")]
 fn half_floats(x: __m256i) -> __m256 {
     let set = _mm256_set1_epi32;
     let magnitude = _mm256_and_si256(x, set(0x7fff));
@@ -358,10 +358,41 @@ impl Texels for R16Float<'_> {
         self.0.as_ptr() as *const u8
     }
     #[inline]
-    #[target_feature(enable = "avx2,fma")]
+    #[target_feature(enable = "avx2,fma,f16c")]
     unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4] {
         // SAFETY: offsets address texels, and one value follows the last.
         unsafe { word_codes::<2>(self.0.as_ptr() as *const i32, offs, w, |x| half_floats(x)) }
+    }
+}
+
+/// (value, normal) in binary16: a ray's pair of corners along the last
+/// axis in one 128-bit load, made float32 by the F16C conversion.
+pub struct Rgba16Float<'a>(pub &'a [[u16; 4]]);
+
+impl Texels for Rgba16Float<'_> {
+    const PER_TEXEL: usize = 1;
+    const VALUE_UNIT: f32 = 1.0;
+    const UNIT_BYTES: usize = 8;
+    fn base(&self) -> *const u8 {
+        self.0.as_ptr() as *const u8
+    }
+    #[inline]
+    #[target_feature(enable = "avx2,fma,f16c")]
+    unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4] {
+        let base = self.0.as_ptr() as *const u16;
+        // SAFETY: the caller's contract; a pair's 16 bytes hold the texel
+        // and the next, which exists unless clamped onto the texel.
+        unsafe {
+            corner_pairs(offs, w, |at, apart| {
+                let p = base.add(4 * at);
+                let halves = if apart {
+                    _mm_loadu_si128(p as *const __m128i)
+                } else {
+                    _mm_set1_epi64x(std::ptr::read_unaligned(p as *const i64))
+                };
+                _mm256_cvtph_ps(halves)
+            })
+        }
     }
 }
 
@@ -369,7 +400,7 @@ impl Texels for R16Float<'_> {
 /// ~2e-7; below -87 it returns ~1.6e-38, under the 1e-30 at which a ray
 /// stops with transmittance 0, as the shader's exp underflows to.
 #[inline]
-#[target_feature(enable = "avx2,fma")]
+#[target_feature(enable = "avx2,fma,f16c")]
 fn exp_nonpositive(x: __m256) -> __m256 {
     let x = _mm256_max_ps(x, _mm256_set1_ps(-87.0));
     let t = _mm256_mul_ps(x, _mm256_set1_ps(std::f32::consts::LOG2_E));
@@ -389,7 +420,7 @@ fn exp_nonpositive(x: __m256) -> __m256 {
 /// 2 atanh((m - 1) / (m + 1)) to its f^9 term (|f| <= 0.172, the next term
 /// ~4e-10): relative error ~1e-7.
 #[inline]
-#[target_feature(enable = "avx2,fma")]
+#[target_feature(enable = "avx2,fma,f16c")]
 fn neg_log_one_minus(a: __m256) -> __m256 {
     let one = _mm256_set1_ps(1.0);
     let series = _mm256_fmadd_ps(a, _mm256_set1_ps(1.0 / 3.0), _mm256_set1_ps(0.5));
@@ -416,7 +447,7 @@ fn neg_log_one_minus(a: __m256) -> __m256 {
 
 /// 1 - e^-x for x >= 0, by its series below 1e-3 (compositing.wgsl).
 #[inline]
-#[target_feature(enable = "avx2,fma")]
+#[target_feature(enable = "avx2,fma,f16c")]
 fn one_minus_exp_neg(x: __m256) -> __m256 {
     let one = _mm256_set1_ps(1.0);
     let series = _mm256_mul_ps(x, _mm256_fnmadd_ps(x, _mm256_fnmadd_ps(x, _mm256_set1_ps(1.0 / 6.0), _mm256_set1_ps(0.5)), one));
@@ -426,7 +457,7 @@ fn one_minus_exp_neg(x: __m256) -> __m256 {
 
 /// The eight lanes of a register.
 #[inline]
-#[target_feature(enable = "avx2,fma")]
+#[target_feature(enable = "avx2,fma,f16c")]
 pub(super) fn lanes(x: __m256) -> [f32; 8] {
     let mut out = [0f32; 8];
     // SAFETY: an unaligned store of eight floats into eight.
@@ -436,7 +467,7 @@ pub(super) fn lanes(x: __m256) -> [f32; 8] {
 
 /// The eight lanes of an integer register.
 #[inline]
-#[target_feature(enable = "avx2,fma")]
+#[target_feature(enable = "avx2,fma,f16c")]
 pub(super) fn int_lanes(x: __m256i) -> [i32; 8] {
     let mut out = [0i32; 8];
     // SAFETY: an unaligned store of eight integers into eight.
@@ -445,7 +476,7 @@ pub(super) fn int_lanes(x: __m256i) -> [i32; 8] {
 }
 
 #[inline]
-#[target_feature(enable = "avx2,fma")]
+#[target_feature(enable = "avx2,fma,f16c")]
 fn dot3(a: &[__m256; 3], b: &[__m256; 3]) -> __m256 {
     _mm256_fmadd_ps(a[0], b[0], _mm256_fmadd_ps(a[1], b[1], _mm256_mul_ps(a[2], b[2])))
 }
@@ -454,7 +485,7 @@ fn dot3(a: &[__m256; 3], b: &[__m256; 3]) -> __m256 {
 /// directional light travelling along `light_dir` (lighting.wgsl
 /// `light_intensity`): ambient where the normal is zero.
 #[inline]
-#[target_feature(enable = "avx2,fma")]
+#[target_feature(enable = "avx2,fma,f16c")]
 pub(super) fn lit_by(texel: &[__m256; 4], light_dir: &[__m256; 3], ambient: __m256, diffuse: __m256) -> __m256 {
     let (zero, one) = (_mm256_setzero_ps(), _mm256_set1_ps(1.0));
     let mag = _mm256_max_ps(_mm256_max_ps(abs(texel[1]), abs(texel[2])), abs(texel[3]));
@@ -472,7 +503,7 @@ pub(super) fn lit_by(texel: &[__m256; 4], light_dir: &[__m256; 3], ambient: __m2
 /// from the light itself): sampling.wgsl `direction_and_length`, scaled by
 /// the largest component first so that no length overflows.
 #[inline]
-#[target_feature(enable = "avx2,fma")]
+#[target_feature(enable = "avx2,fma,f16c")]
 pub(super) fn point_light_travel(p: &Params, rays: &super::rays8::Rays, at: __m256) -> ([__m256; 3], __m256) {
     let t = _mm256_add_ps(rays.t0, at);
     let pos = std::array::from_fn(|k| _mm256_fmadd_ps(rays.d[k], t, _mm256_set1_ps(p.cam_pos[k])));
@@ -484,7 +515,7 @@ pub(super) fn point_light_travel(p: &Params, rays: &super::rays8::Rays, at: __m2
 /// defined, and the distance back to the light (sampling.wgsl
 /// `direction_and_length`).
 #[inline]
-#[target_feature(enable = "avx2,fma")]
+#[target_feature(enable = "avx2,fma,f16c")]
 fn travel_from_light(p: &Params, pos: [__m256; 3]) -> ([__m256; 3], __m256, __m256) {
     let set = _mm256_set1_ps;
     let v: [__m256; 3] = std::array::from_fn(|k| _mm256_sub_ps(pos[k], set(p.light_pos[k])));
@@ -510,7 +541,7 @@ pub(super) struct Spans {
 
 impl Spans {
     #[inline]
-    #[target_feature(enable = "avx2,fma")]
+    #[target_feature(enable = "avx2,fma,f16c")]
     pub(super) fn new(p: &Params, rays: &super::rays8::Rays) -> Spans {
         let h = _mm256_set1_ps(p.step_size);
         let first_len = _mm256_min_ps(_mm256_mul_ps(_mm256_add_ps(_mm256_set1_ps(1.0), rays.shift), h), rays.chord);
@@ -519,7 +550,7 @@ impl Spans {
 
     /// Segment i's start and length (0 past the chord).
     #[inline]
-    #[target_feature(enable = "avx2,fma")]
+    #[target_feature(enable = "avx2,fma,f16c")]
     pub(super) fn span(&self, i: __m256i) -> (__m256, __m256) {
         let zero = _mm256_setzero_ps();
         let a = _mm256_fmadd_ps(_mm256_cvtepi32_ps(i), self.h, self.shift_h);
@@ -532,7 +563,7 @@ impl Spans {
 /// Cell-centred voxel coordinates along each numpy axis at the chords'
 /// start, and per unit of ray parameter.
 #[inline]
-#[target_feature(enable = "avx2,fma")]
+#[target_feature(enable = "avx2,fma,f16c")]
 pub(super) fn voxel_axes(p: &Params, rays: &super::rays8::Rays, dims: [usize; 3]) -> ([__m256; 3], [__m256; 3]) {
     let set = _mm256_set1_ps;
     let start = std::array::from_fn(|k| {
@@ -548,7 +579,7 @@ pub(super) fn voxel_axes(p: &Params, rays: &super::rays8::Rays, dims: [usize; 3]
 /// along each axis, clamped to the texture's last texel `hi` (times the
 /// axis's `stride`), and the weights of the upper ones.
 #[inline]
-#[target_feature(enable = "avx2,fma")]
+#[target_feature(enable = "avx2,fma,f16c")]
 pub(super) fn corners(u: &[__m256; 3], hi: &[__m256i; 3], stride: &[__m256i; 3]) -> ([[__m256i; 2]; 3], [__m256; 3]) {
     let (zi, onei) = (_mm256_setzero_si256(), _mm256_set1_epi32(1));
     let mut w = [_mm256_setzero_ps(); 3];
@@ -571,10 +602,10 @@ pub(super) fn corners(u: &[__m256; 3], hi: &[__m256i; 3], stride: &[__m256i; 3])
 /// Stops early (its pixels then are garbage) once `halt` is set.
 ///
 /// # Safety
-/// Needs AVX2 and FMA; `f.cells`, where given, is followed by three
+/// Needs AVX2, FMA and F16C; `f.cells`, where given, is followed by three
 /// readable bytes, and the texels by the padding their reads need
 /// (`Texels::padded`, which `super::render` checks).
-#[target_feature(enable = "avx2,fma")]
+#[target_feature(enable = "avx2,fma,f16c")]
 pub unsafe fn march<T: Texels>(
     f: &Frame,
     tex: &T,
@@ -1199,9 +1230,9 @@ pub unsafe fn march<T: Texels>(
 /// and `stride` as for `corners`.
 ///
 /// # Safety
-/// Needs AVX2 and FMA, and `tex` the padding its reads need.
+/// Needs AVX2, FMA and F16C, and `tex` the padding its reads need.
 #[inline]
-#[target_feature(enable = "avx2,fma")]
+#[target_feature(enable = "avx2,fma,f16c")]
 pub(super) unsafe fn gradient_at<T: Texels>(
     tex: &T,
     p: &Params,
@@ -1246,7 +1277,7 @@ const PREFETCH_MIN_VOLUME_BYTES: usize = 16 << 20;
 /// texels outgrow the caches and two neighbouring rays lie at least
 /// PREFETCH_SPREAD_BYTES of texels apart halfway along their chords (`per`:
 /// voxels per unit of ray parameter along each axis).
-#[target_feature(enable = "avx2,fma")]
+#[target_feature(enable = "avx2,fma,f16c")]
 fn prefetches(rays: &super::rays8::Rays, per: &[__m256; 3], texel_bytes: usize, dims: [usize; 3]) -> bool {
     if dims.iter().product::<usize>() * texel_bytes < PREFETCH_MIN_VOLUME_BYTES {
         return false;
@@ -1261,7 +1292,7 @@ fn prefetches(rays: &super::rays8::Rays, per: &[__m256; 3], texel_bytes: usize, 
 }
 
 #[inline]
-#[target_feature(enable = "avx2,fma")]
+#[target_feature(enable = "avx2,fma,f16c")]
 fn abs(x: __m256) -> __m256 {
     _mm256_andnot_ps(_mm256_set1_ps(-0.0), x)
 }
@@ -1272,9 +1303,9 @@ mod tests {
 
     /// Eight rays whose voxel coordinates per unit of ray parameter grow by
     /// `spread` from lane to lane along axis 0, with chords from 2 to 4
-    /// (the caller checks AVX2 and FMA).
+    /// (the caller checks AVX2, FMA and F16C).
     fn prefetch_for(spread: f32, hits: u8, texel_bytes: usize, dims: [usize; 3]) -> bool {
-        // SAFETY: the caller checked AVX2 and FMA.
+        // SAFETY: the caller checked AVX2, FMA and F16C.
         unsafe {
             let lane = |l: i32| if hits & (1 << l) != 0 { -1 } else { 0 };
             let hit = _mm256_castsi256_ps(_mm256_setr_epi32(lane(0), lane(1), lane(2), lane(3), lane(4), lane(5),
@@ -1298,7 +1329,7 @@ mod tests {
 
     #[test]
     fn rays_far_apart_through_a_large_volume_prefetch() {
-        if !(is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma")) {
+        if !super::super::available() {
             return;
         }
         let big = [256, 256, 256];
@@ -1317,7 +1348,7 @@ mod tests {
 
     #[test]
     fn half_floats_read_every_binary16_exactly() {
-        if !(is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma")) {
+        if !super::super::available() {
             return;
         }
         // As the march's workers run: subnormal results flushed.
@@ -1327,7 +1358,7 @@ mod tests {
             // A junk upper half, as a 32-bit read of a code next to another has.
             let words: Vec<i32> = chunk.iter().map(|&c| c | 0x5a5a_0000).collect();
             let mut out = [0.0f32; 8];
-            // SAFETY: AVX2 and FMA are available.
+            // SAFETY: AVX2, FMA and F16C are available.
             unsafe {
                 let x = _mm256_loadu_si256(words.as_ptr() as *const __m256i);
                 _mm256_storeu_ps(out.as_mut_ptr(), half_floats(x));
@@ -1354,7 +1385,7 @@ mod tests {
 
     #[test]
     fn neg_log_one_minus_matches_f64() {
-        if !(is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma")) {
+        if !super::super::available() {
             return;
         }
         // Every 2^-16 of opacity, the series' edge, f32's largest below 1,
@@ -1365,7 +1396,7 @@ mod tests {
             let mut lanes = [0.0f32; 8];
             lanes[..chunk.len()].copy_from_slice(chunk);
             let mut out = [0.0f32; 8];
-            // SAFETY: AVX2 and FMA are available.
+            // SAFETY: AVX2, FMA and F16C are available.
             unsafe { _mm256_storeu_ps(out.as_mut_ptr(), neg_log_one_minus(_mm256_loadu_ps(lanes.as_ptr()))) };
             for (&x, &got) in lanes.iter().zip(&out) {
                 if x >= 1.0 {

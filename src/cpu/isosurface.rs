@@ -19,10 +19,10 @@ use std::sync::atomic::{AtomicBool, Ordering};
 /// is set.
 ///
 /// # Safety
-/// Needs AVX2 and FMA; `f.cells`, where given, is followed by three
+/// Needs AVX2, FMA and F16C; `f.cells`, where given, is followed by three
 /// readable bytes, and the texels by the padding their reads need
 /// (`Texels::padded`, which `super::render` checks).
-#[target_feature(enable = "avx2,fma")]
+#[target_feature(enable = "avx2,fma,f16c")]
 pub unsafe fn iso<T: Texels>(
     f: &Frame,
     tex: &T,
@@ -34,7 +34,7 @@ pub unsafe fn iso<T: Texels>(
 ) -> Stats {
     let p = f.params;
     let dims = f.volume.dims;
-    // SAFETY: the caller checked AVX2 and FMA.
+    // SAFETY: the caller checked AVX2, FMA and F16C.
     let rays = unsafe { super::rays8::rays(f, col0, row) };
     let set = _mm256_set1_ps;
     let (zero, zi, onei) = (_mm256_setzero_ps(), _mm256_setzero_si256(), _mm256_set1_epi32(1));

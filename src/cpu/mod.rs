@@ -52,6 +52,8 @@ pub enum Texels {
     R16Unorm(Vec<u16>),
     /// binary16 values, and one more past the last.
     R16Float(Vec<u16>),
+    /// (value, unit normal) in binary16.
+    Rgba16Float(Vec<[u16; 4]>),
 }
 
 impl Texels {
@@ -65,6 +67,7 @@ impl Texels {
             Texels::R8Unorm(t) => t.len() >= n + 3,
             Texels::R16Unorm(t) => t.len() > n,
             Texels::R16Float(t) => t.len() > n,
+            Texels::Rgba16Float(t) => t.len() >= n,
         }
     }
 }
@@ -102,6 +105,10 @@ macro_rules! with_reader {
                 let $t = &avx2::R16Float(x);
                 $call
             }
+            Texels::Rgba16Float(x) => {
+                let $t = &avx2::Rgba16Float(x);
+                $call
+            }
         }
     };
 }
@@ -115,7 +122,7 @@ pub struct CpuVolume {
 impl CpuVolume {
     /// Whether each texel holds a normal (or gradient) beside its value.
     pub fn has_normals(&self) -> bool {
-        matches!(self.texels, Texels::Rgba32Float(_) | Texels::Rgba16Snorm(_))
+        matches!(self.texels, Texels::Rgba32Float(_) | Texels::Rgba16Snorm(_) | Texels::Rgba16Float(_))
     }
 }
 
@@ -210,11 +217,11 @@ pub struct Stats {
     pub truncated_needed: u32,
 }
 
-/// Whether this machine runs the native march (x86-64 with AVX2 and FMA).
+/// Whether this machine runs the native march (x86-64 with AVX2, FMA and F16C).
 pub fn available() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
-        is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma")
+        is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma") && is_x86_feature_detected!("f16c")
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
@@ -274,7 +281,7 @@ pub fn render(
     if let Some(d) = &depth {
         assert_eq!(d.len(), w * h, "depth size");
     }
-    assert!(available(), "the native march needs AVX2 and FMA");
+    assert!(available(), "the native march needs AVX2, FMA and F16C");
     assert!(p.max_steps <= MAX_STEPS, "the native march takes at most {MAX_STEPS} steps a ray");
     if let Some((codes, dims)) = frame.cells {
         assert!(codes.len() >= dims.iter().product::<usize>() + 3, "occupancy codes need 3 bytes of padding");
@@ -394,7 +401,7 @@ fn march_row(
 ) -> Stats {
     #[cfg(target_arch = "x86_64")]
     {
-        // SAFETY: `render` checked AVX2 and FMA and the paddings.
+        // SAFETY: `render` checked AVX2, FMA, F16C and the paddings.
         unsafe {
             if frame.model == Model::Isosurface {
                 return with_reader!(&frame.volume.texels, t => isosurface::iso(frame, t, col0, row, out, depth, halt));

@@ -15,9 +15,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 /// or Average); stops early (its pixels then are garbage) once `halt` is set.
 ///
 /// # Safety
-/// Needs AVX2 and FMA, and the texels followed by the padding their reads
+/// Needs AVX2, FMA and F16C, and the texels followed by the padding their reads
 /// need (`Texels::padded`, which `super::render` checks).
-#[target_feature(enable = "avx2,fma")]
+#[target_feature(enable = "avx2,fma,f16c")]
 pub unsafe fn project<T: Texels>(
     f: &Frame,
     tex: &T,
@@ -28,7 +28,7 @@ pub unsafe fn project<T: Texels>(
 ) -> Stats {
     let p = f.params;
     let dims = f.volume.dims;
-    // SAFETY: the caller checked AVX2 and FMA.
+    // SAFETY: the caller checked AVX2, FMA and F16C.
     let rays = unsafe { super::rays8::rays(f, col0, row) };
     let set = _mm256_set1_ps;
     let (zero, zi) = (_mm256_setzero_ps(), _mm256_setzero_si256());

@@ -28,7 +28,7 @@ pub struct Rays {
 
 /// model::jitter_shift in eight lanes.
 #[inline]
-#[target_feature(enable = "avx2,fma")]
+#[target_feature(enable = "avx2,fma,f16c")]
 fn jitter_shift(cols: __m256i, row: u32, seed: u32) -> __m256 {
     let hash = |mut x: __m256i| {
         x = _mm256_xor_si256(x, _mm256_srli_epi32::<16>(x));
@@ -46,8 +46,8 @@ fn jitter_shift(cols: __m256i, row: u32, seed: u32) -> __m256 {
 /// The rays of pixels col0..col0 + 8 of `row`.
 ///
 /// # Safety
-/// Needs AVX2 and FMA.
-#[target_feature(enable = "avx2,fma")]
+/// Needs AVX2, FMA and F16C.
+#[target_feature(enable = "avx2,fma,f16c")]
 pub unsafe fn rays(frame: &Frame, col0: u32, row: u32) -> Rays {
     let p = frame.params;
     let set = _mm256_set1_ps;
@@ -119,7 +119,7 @@ pub unsafe fn rays(frame: &Frame, col0: u32, row: u32) -> Rays {
 
 /// skipping.wgsl `occupied_window` (`super::Ray::occupied_window`).
 #[inline]
-#[target_feature(enable = "avx2,fma")]
+#[target_feature(enable = "avx2,fma,f16c")]
 fn occupied_window(
     frame: &Frame,
     d: &[__m256; 3],
@@ -246,7 +246,7 @@ mod tests {
             };
             for row in 0..p.height {
                 for col0 in (0..p.width).step_by(TILE) {
-                    // SAFETY: AVX2 and FMA are available.
+                    // SAFETY: AVX2, FMA and F16C are available.
                     let r = unsafe { rays(&frame, col0, row) };
                     let lanes = |x: __m256| -> [u32; 8] { unsafe { std::mem::transmute(x) } };
                     let ints = |x: __m256i| -> [u32; 8] { unsafe { std::mem::transmute(x) } };

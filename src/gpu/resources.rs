@@ -69,7 +69,7 @@ fn cpu_copy(
     // texels, whole texels otherwise.
     let units = match format {
         wgpu::TextureFormat::Rgba32Float | wgpu::TextureFormat::R32Float => bytes.len() / 4,
-        wgpu::TextureFormat::Rgba16Snorm => bytes.len() / 8,
+        wgpu::TextureFormat::Rgba16Snorm | wgpu::TextureFormat::Rgba16Float => bytes.len() / 8,
         wgpu::TextureFormat::R8Unorm => bytes.len(),
         _ => bytes.len() / 2,
     };
@@ -92,10 +92,7 @@ fn cpu_copy(
         wgpu::TextureFormat::R8Unorm => Texels::R8Unorm(copied(bytes, 3)?),
         wgpu::TextureFormat::R16Unorm => Texels::R16Unorm(copied(bytes, 1)?),
         wgpu::TextureFormat::R16Float => Texels::R16Float(copied(bytes, 1)?),
-        // (value, normal) in binary16 stays on the shader: made float32 four
-        // halves a corner, the native march's lit benchmark frame took
-        // 503 ms against lavapipe's 472 (fixed16's integer codes take three
-        // operations a channel, a binary16 eleven).
+        wgpu::TextureFormat::Rgba16Float => Texels::Rgba16Float(copied(bytes, 0)?),
         _ => return None,
     };
     Some(CpuVolume { texels, dims })
