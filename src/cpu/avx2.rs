@@ -108,7 +108,9 @@ impl Texels for Rgba32Float<'_> {
                 if apart {
                     _mm256_loadu_ps(p)
                 } else {
-                    _mm256_broadcast_ps(&*(p as *const __m128))
+                    // (Texels are 4-byte aligned: no reference to an __m128.)
+                    let texel = _mm_loadu_ps(p);
+                    _mm256_set_m128(texel, texel)
                 }
             })
         }
@@ -156,8 +158,8 @@ impl Texels for Rgba16Snorm<'_> {
 /// Trilinear four channels read a ray at a time: `pair(offset, apart)`
 /// gives the eight channels of the texel at `offset` and of the next one
 /// along the last axis, or of that texel twice where `apart` is false (its
-/// upper corner clamped onto it). Each ray interpolates its pairs in its own registers,
-/// and one transpose puts the rays in lanes: no gathers.
+/// upper corner clamped onto it). Each ray interpolates its pairs in its
+/// own registers, and one transpose puts the rays in lanes: no gathers.
 ///
 /// # Safety
 /// `pair` must read only texels the offsets address.
