@@ -320,10 +320,11 @@ def test_lit_integer_volumes_pack_their_gradients_for_the_native_march(dtype, co
 @pytest.mark.parametrize("light", ["directional", "point"])
 def test_native_gradients_from_central_differences_match_the_shader(precision, light):
     # Values alone, lit, and not stored with their gradients (fixed16 and
-    # float16 never are; float32 here because they would pass a small memory budget): both
-    # engines take central differences of the interpolated values at each
-    # lit sample, and at the isosurface's hit. NaN voxels (float32 only) leave their neighbours' gradients
-    # zero (ambient light).
+    # float16 never are; float32 here because they would pass a small
+    # memory budget): both engines take central differences of the
+    # interpolated values at each lit sample, and at the isosurface's hit.
+    # NaN voxels (float32 only) leave their neighbours' gradients zero
+    # (ambient light).
     d = sphere_pair()
     if precision == "float32":
         d[10:12, 14:16, 3:9] = np.nan
