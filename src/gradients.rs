@@ -89,8 +89,13 @@ fn fill(
                 })
             })
             .collect();
-        // A worker only indexes within the clamped grid: none panics.
-        workers.into_iter().map(|w| w.join().unwrap_or(f64::INFINITY)).fold(0.0, f64::max)
+        // A worker indexes only within the clamped grid; were one to panic
+        // anyway, the panic goes on here (the binding makes it an exception)
+        // rather than leaving its texels unwritten.
+        workers
+            .into_iter()
+            .map(|w| w.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
+            .fold(0.0, f64::max)
     })
 }
 

@@ -16,7 +16,7 @@
 //! values, with or without jitter, skipping and uniform runs, the
 //! maximum, minimum and average intensity projections (`projection`) and
 //! the isosurface (`isosurface`), from a volume held in one texture
-//! (float32 or 16-bit fixed-point texels, or unlit 8- and 16-bit codes).
+//! (float32, float16 or 16-bit fixed-point texels, or 8- and 16-bit codes).
 //! Everything else stays on the GPU path, whose images these match
 //! (tests/test_native_march.py).
 
@@ -57,7 +57,8 @@ pub enum Texels {
 }
 
 impl Texels {
-    /// Whether the storage holds the padding its 32-bit reads need past `n` texels.
+    /// Whether the storage holds the padding its reads need past `n` texels
+    /// (a texel's read takes the next along the last axis with it).
     fn padded(&self, n: usize) -> bool {
         match self {
             Texels::Rgba32Float(t) => t.len() >= n,

@@ -351,11 +351,12 @@ impl VolumeGpu {
         Self::whole_texels(ctx, vol, vol.dims, format, bytemuck::cast_slice(&texels), MinMaxGrid::build(vol), native)
     }
 
-    /// Float32 values with their gradients (`gradients::bordered_texels`),
+    /// Values (float32, or integer codes as the fractions of their range
+    /// the shader reads) with their gradients (`gradients::bordered_texels`),
     /// one Rgba32Float texel each, for gradient-shaded frames: a lit sample
-    /// then fetches once instead of seven times. None where
-    /// the device cannot filter float32 textures, a value is not finite, or
-    /// the texels pass its limits. `grid` is the volume's own: the shader
+    /// then fetches once instead of seven times. None where the device
+    /// cannot filter float32 textures, a value is not finite, or the texels
+    /// pass its limits. `grid` is the volume's own: the shader
     /// takes the border off before finding a sample's cell.
     pub fn with_gradients(ctx: &GpuContext, vol: &VolumeView, grid: &MinMaxGrid) -> Result<Option<VolumeGpu>, Error> {
         let big = vol.dims.map(|d| d + 2);
