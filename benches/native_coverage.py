@@ -6,10 +6,12 @@ kept as 8-bit codes (fuel.vti's own storage, and the benchmark's double
 sphere quantised to it), or lit from their gradients, which the native
 march's renderer stores beside the values; and the benchmark scene stored
 as float16 and float32 (value, normal) texels, which the march reads a ray
-at a time. Each frame is
-rendered by the shader and by the native march alternately in one process
-(`VolumeRenderer.native_march` off and on), and compared by median time and
-by the largest difference between their premultiplied images.
+at a time; and unbiased frames (ratio tracking), without early termination
+so that both engines draw the same points (with it, the roulette's numbers
+hash each point's offset, which their logarithms may round apart). Each
+frame is rendered by the shader and by the native march alternately in one
+process (`VolumeRenderer.native_march` off and on), and compared by median
+time and by the largest difference between their premultiplied images.
 
 Output: a table on stdout and out/native_coverage.json (docs/speed.md).
 
@@ -55,6 +57,7 @@ def cases(size):
          renderer(Volume(ds, compute_normal_volume(ds), *BOX), Light.default(),
                   OpacityTransferFunction.linear(0.0, 0.1), size), balanced.replace(order="back_to_front")),
         ("benchmark scene, power correction", None, balanced.replace(opacity_correction="power")),
+        ("benchmark scene, unbiased", None, balanced.replace(unbiased=True, early_ray_termination=False)),
         ("double sphere 256^3 as float16, unlit",
          renderer(Volume(ds, None, *BOX), Light.ambient_only(1.0), OpacityTransferFunction.linear(0.0, 0.1), size,
                   precision="float16"), balanced),
@@ -83,6 +86,7 @@ def cases(size):
             ("fuel.vti as uint8, unlit, linear(0, 0.5)",
              renderer(fuel, Light.ambient_only(1.0), OpacityTransferFunction.linear(0.0, 0.5), size), balanced),
             ("fuel.vti as uint8, mip", None, balanced.replace(model="mip")),
+            ("fuel.vti as uint8, unbiased", None, balanced.replace(unbiased=True, early_ray_termination=False)),
             ("fuel.vti as uint8, isosurface 0.3", None, balanced.replace(model="isosurface", iso_value=0.3)),
             # Lit from its gradients: the shader's renderer never packs them
             # (it takes central differences at each lit sample); the native

@@ -147,6 +147,15 @@ CONFIGS = {
     # Marched front to back natively: the same sum (see test_back_to_front_matches_the_shader).
     "back_to_front": {"order": "back_to_front"},
     "back_to_front_pre_integrated": {"order": "back_to_front", "pre_integrated": True, "step_size": 0.03},
+    # Ratio tracking: the same Poisson points from the same integer streams.
+    # Without early termination, which is Russian roulette there: its number
+    # is a hash of the point's offset, whose last bits the two engines'
+    # logarithms round apart (test_native_roulette_keeps_the_mean).
+    "unbiased": {"unbiased": True, "early_ray_termination": False},
+    "unbiased_jitter": {"unbiased": True, "early_ray_termination": False, "jitter": True, "step_size": 0.03},
+    "unbiased_power": {"unbiased": True, "early_ray_termination": False, "opacity_correction": "power"},
+    "unbiased_absorption": {"unbiased": True, "early_ray_termination": False, "model": "absorption"},
+    "unbiased_emission": {"unbiased": True, "model": "emission"},
 }
 # Frames whose sample counts may differ, compared by their images: the
 # shader marches back-to-front frames from the far end, where its leaps
@@ -368,7 +377,8 @@ def test_native_single_scattering_matches_the_shader(kind):
 
 
 @pytest.mark.parametrize("changes, light", [
-    ({"unbiased": True}, None),
+    # Unbiased points are drawn from the far end there.
+    ({"unbiased": True, "order": "back_to_front"}, None),
 ])
 def test_frames_the_native_march_does_not_cover_stay_on_the_shader(changes, light):
     r = renderer("normals_fixed16")
@@ -381,14 +391,17 @@ def test_frames_the_native_march_does_not_cover_stay_on_the_shader(changes, ligh
 
 
 @pytest.mark.parametrize("kind", ["normals_fixed16", "normals_float32", "gradients"])
-@pytest.mark.parametrize("model", ["emission_absorption", "isosurface", "single_scattering"])
+@pytest.mark.parametrize("model", ["emission_absorption", "isosurface", "single_scattering", "unbiased"])
 def test_native_point_light_matches_the_shader(kind, model):
     # A point light inside the box (every direction lights some sample;
     # one sample may sit on the light itself, where only ambient light
     # counts) and one outside it.
     r = renderer(kind)
     # Shadow rays from the same samples as the native march's (see IMAGES_ONLY).
-    cfg = RenderConfig.balanced().replace(model=model, iso_value=0.45, exact_filtering=model == "single_scattering")
+    if model == "unbiased":
+        cfg = RenderConfig.balanced().replace(unbiased=True, early_ray_termination=False)
+    else:
+        cfg = RenderConfig.balanced().replace(model=model, iso_value=0.45, exact_filtering=model == "single_scattering")
     for position in ([0.1, -0.2, 0.05], [2.0, 2.0, 2.0]):
         r.set_light(Light.point_light(position, ambient=0.2, diffuse=0.8))
         for cam in (INSIDE, OUTSIDE):
@@ -399,6 +412,48 @@ def test_native_point_light_matches_the_shader(kind, model):
         r.set_light(Light.directional([-0.6, -0.3, -0.8], ambient=0.2, diffuse=0.8))
         directional, _ = both(r, cfg)
         assert np.abs(directional[0] - native[0]).max() > 5 * LEVEL
+
+
+@pytest.mark.parametrize("kind", ["normals_float32", "gradients", "values_uint8"])
+def test_native_unbiased_cell_rates_match_the_shader(kind):
+    # An opaque shell (power form: extinction up to 1e30) lifts the frame's
+    # rate to 16 points a step, and each block takes its own cell's
+    # majorant instead: more points where the shell is, a point a step
+    # elsewhere. With and without leaps over empty cells.
+    r = renderer(kind)
+    shell = OpacityTransferFunction([(0.0, 0.0), (0.3, 0.0), (0.35, 1.0), (1.0, 1.0)])
+    r.set_transfer_functions(ColorTransferFunction.from_colormap("viridis"), shell)
+    cfg = RenderConfig.balanced().replace(unbiased=True, early_ray_termination=False, opacity_correction="power")
+    counts = []
+    for skip in (True, False):
+        r.empty_space_skipping = skip
+        native, shader = both(r, cfg)
+        assert_same(native, shader, f"{kind}, skipping {skip}")
+        counts.append(native[1]["samples"])
+    # Leaps pass the empty cells' points; between 1 and 16 points a step.
+    steps = both(r, cfg.replace(unbiased=False))[0][1]["samples"]
+    assert counts[0] < counts[1] and 1.5 * steps < counts[1] < 16 * steps, (counts, steps)
+
+
+def test_native_roulette_keeps_the_mean():
+    # With early termination, rays below the threshold go on by Russian
+    # roulette, whose number hashes the point's offset: where the engines'
+    # logarithms round an offset apart, a ray's outcome differs. Each engine
+    # is unbiased (tests/test_unbiased.py), so their means agree.
+    r = renderer("values_float32", size=(40, 36))
+    cfg = RenderConfig.balanced().replace(unbiased=True, opacity_threshold=0.5)
+    means = []
+    for native in (True, False):
+        r.native_march = native
+        stack = np.stack([r.render(dtype=np.float32, premultiplied=True, config=cfg.replace(jitter_seed=k))
+                          for k in range(48)]).astype(np.float64)
+        assert r.last_frame_stats["engine"] == ("native" if native else "gpu")
+        means.append((stack.mean(0), stack.std(0) / np.sqrt(len(stack))))
+    (a, sa), (b, sb) = means
+    z = (a - b) / np.maximum(np.hypot(sa, sb), 0.25 * LEVEL)
+    # Rays cut short: the frame's opacity reaches the threshold.
+    assert a[..., 3].max() > 0.5 and np.sqrt((z ** 2).mean()) < 1.35, np.sqrt((z ** 2).mean())
+    assert abs((a - b).mean()) < 0.05 * LEVEL + 4 * np.sqrt((sa ** 2 + sb ** 2).mean() / a.size)
 
 
 def test_native_march_off_keeps_frames_on_the_shader():

@@ -154,7 +154,13 @@ def test_leaps_and_passes_see_the_same_points():
         assert np.abs(skipped - plain).max() < 1e-5, np.abs(skipped - plain).max()
         assert n_skipped < 0.5 * r.last_frame_stats["samples"]
         assert plain[..., 3].max() > 0.2
+    # The shader's passes (the native march takes one): leaps see the same points there too.
+    r.native_march = False
+    passes = [frame(r, config=cfg)]
+    r.empty_space_skipping = True
+    passes.append(frame(r, config=cfg))
     assert r.last_frame_stats["passes"] >= 2
+    assert np.abs(passes[0] - passes[1]).max() < 1e-5
     # Rays that cross passes keep their state and their segments' points:
     # the mean of such frames has no bias either.
     ref = r.render_float64(premultiplied=True, progress=False, config=CONVERGED)

@@ -403,7 +403,7 @@ impl Texels for Rgba16Float<'_> {
 /// stops with transmittance 0, as the shader's exp underflows to.
 #[inline]
 #[target_feature(enable = "avx2,fma,f16c")]
-fn exp_nonpositive(x: __m256) -> __m256 {
+pub(super) fn exp_nonpositive(x: __m256) -> __m256 {
     let x = _mm256_max_ps(x, _mm256_set1_ps(-87.0));
     let t = _mm256_mul_ps(x, _mm256_set1_ps(std::f32::consts::LOG2_E));
     let k = _mm256_round_ps::<{ _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC }>(t);
@@ -416,19 +416,49 @@ fn exp_nonpositive(x: __m256) -> __m256 {
     _mm256_mul_ps(poly, _mm256_castsi256_ps(bits))
 }
 
-/// -ln(1 - a) for opacities a in [0, 1], the power form's extinction
-/// (compositing.wgsl `extinction`): its series below 1e-3, 1e30 from 1 up.
-/// ln y for y = 1 - a = m 2^e, m in [sqrt(1/2), sqrt(2)): e ln 2 plus
-/// 2 atanh((m - 1) / (m + 1)) to its f^9 term (|f| <= 0.172, the next term
-/// ~4e-10): relative error ~1e-7.
+/// The transfer function's table (entries at scalars m / (M - 1), M >= 2)
+/// interpolated at eight values, clamped to [0, 1].
 #[inline]
 #[target_feature(enable = "avx2,fma,f16c")]
-fn neg_log_one_minus(a: __m256) -> __m256 {
+pub(super) fn lut_rgba(lut: &[[f32; 4]], v: __m256) -> [__m256; 4] {
+    let m = lut.len();
+    let xl = _mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(v, _mm256_setzero_ps()), _mm256_set1_ps(1.0)), _mm256_set1_ps((m - 1) as f32));
+    let k = _mm256_min_epi32(_mm256_cvttps_epi32(xl), _mm256_set1_epi32(m as i32 - 2));
+    let t = _mm256_sub_ps(xl, _mm256_cvtepi32_ps(k));
+    // Each ray's entries k and k + 1 in one 256-bit load.
+    let (k, t) = (int_lanes(k), lanes(t));
+    let base = lut.as_ptr() as *const f32;
+    let rays: [__m128; 8] = std::array::from_fn(|l| {
+        // SAFETY: 0 <= k <= M - 2, so both entries lie in the table.
+        let e = unsafe { _mm256_loadu_ps(base.add(4 * k[l] as usize)) };
+        let (e0, e1) = (_mm256_castps256_ps128(e), _mm256_extractf128_ps::<1>(e));
+        _mm_fmadd_ps(_mm_sub_ps(e1, e0), _mm_set1_ps(t[l]), e0)
+    });
+    transpose_rays(&rays)
+}
+
+/// -ln(1 - a) for opacities a in [0, 1], the power form's extinction
+/// (compositing.wgsl `extinction`): its series below 1e-3, 1e30 from 1 up.
+#[inline]
+#[target_feature(enable = "avx2,fma,f16c")]
+pub(super) fn neg_log_one_minus(a: __m256) -> __m256 {
     let one = _mm256_set1_ps(1.0);
     let series = _mm256_fmadd_ps(a, _mm256_set1_ps(1.0 / 3.0), _mm256_set1_ps(0.5));
     let series = _mm256_mul_ps(a, _mm256_fmadd_ps(a, series, one));
-    // Clamped so that the bits below hold a normal number; lanes at 1 and up are replaced.
-    let y = _mm256_max_ps(_mm256_sub_ps(one, a), _mm256_set1_ps(f32::MIN_POSITIVE));
+    // Clamped to a normal number; lanes at 1 and up are replaced.
+    let ln_y = ln(_mm256_max_ps(_mm256_sub_ps(one, a), _mm256_set1_ps(f32::MIN_POSITIVE)));
+    let full = _mm256_sub_ps(_mm256_setzero_ps(), ln_y);
+    let x = _mm256_blendv_ps(full, series, _mm256_cmp_ps::<_CMP_LT_OQ>(a, _mm256_set1_ps(1e-3)));
+    _mm256_blendv_ps(x, _mm256_set1_ps(1.0e30), _mm256_cmp_ps::<_CMP_GE_OQ>(a, one))
+}
+
+/// ln y for normal y > 0: y = m 2^e, m in [sqrt(1/2), sqrt(2)), is e ln 2
+/// plus 2 atanh((m - 1) / (m + 1)) to its f^9 term (|f| <= 0.172, the next
+/// term ~4e-10): relative error ~1e-7.
+#[inline]
+#[target_feature(enable = "avx2,fma,f16c")]
+pub(super) fn ln(y: __m256) -> __m256 {
+    let one = _mm256_set1_ps(1.0);
     let bits = _mm256_castps_si256(y);
     // The exponent taken about sqrt(1/2), so that m lands in [sqrt(1/2), sqrt(2)).
     let shifted = _mm256_sub_epi32(bits, _mm256_set1_epi32(0x3f35_04f3));
@@ -441,10 +471,7 @@ fn neg_log_one_minus(a: __m256) -> __m256 {
         poly = _mm256_fmadd_ps(poly, f2, _mm256_set1_ps(c));
     }
     let ln_m = _mm256_mul_ps(_mm256_mul_ps(_mm256_set1_ps(2.0), f), poly);
-    let ln_y = _mm256_fmadd_ps(_mm256_cvtepi32_ps(e), _mm256_set1_ps(std::f32::consts::LN_2), ln_m);
-    let full = _mm256_sub_ps(_mm256_setzero_ps(), ln_y);
-    let x = _mm256_blendv_ps(full, series, _mm256_cmp_ps::<_CMP_LT_OQ>(a, _mm256_set1_ps(1e-3)));
-    _mm256_blendv_ps(x, _mm256_set1_ps(1.0e30), _mm256_cmp_ps::<_CMP_GE_OQ>(a, one))
+    _mm256_fmadd_ps(_mm256_cvtepi32_ps(e), _mm256_set1_ps(std::f32::consts::LN_2), ln_m)
 }
 
 /// 1 - e^-x for x >= 0, by its series below 1e-3 (compositing.wgsl).
@@ -693,20 +720,7 @@ pub unsafe fn march<T: Texels>(
         }
         _mm256_mul_ps(r, _mm256_set1_ps(0.5 * p.step_size))
     };
-    let lut_entry = |v: __m256| -> [__m256; 4] {
-        let xl = _mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(v, zero), one), lut_scale);
-        let k = _mm256_min_epi32(_mm256_cvttps_epi32(xl), lut_last);
-        let t = _mm256_sub_ps(xl, _mm256_cvtepi32_ps(k));
-        // Each ray's entries k and k + 1 in one 256-bit load.
-        let (k, t): ([i32; 8], [f32; 8]) = (std::mem::transmute(k), std::mem::transmute(t));
-        let rays: [__m128; 8] = std::array::from_fn(|l| {
-            // SAFETY: k <= M - 2, so both entries lie in the table.
-            let e = unsafe { _mm256_loadu_ps(lut.add(4 * k[l] as usize)) };
-            let (e0, e1) = (_mm256_castps256_ps128(e), _mm256_extractf128_ps::<1>(e));
-            _mm_fmadd_ps(_mm_sub_ps(e1, e0), _mm_set1_ps(t[l]), e0)
-        });
-        transpose_rays(&rays)
-    };
+    let lut_entry = |v: __m256| lut_rgba(f.lut, v);
     let gradient_at = |u: &[__m256; 3], value: __m256| gradient_at(tex, p, u, value, &hi, &stride);
     // The opacity alone, as lut_entry interpolates it (two gathers).
     let lut_alpha = |v: __m256| -> __m256 {

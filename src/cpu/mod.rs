@@ -28,6 +28,8 @@ mod isosurface;
 mod projection;
 #[cfg(target_arch = "x86_64")]
 mod rays8;
+#[cfg(target_arch = "x86_64")]
+mod tracking;
 
 use crate::gpu::params::Params;
 use crate::occupancy::BLOCK;
@@ -208,6 +210,14 @@ pub struct Frame<'a> {
     /// Single scattering's samples take the light a shadow ray to the
     /// light lets through, by the phase function (else ambient light only).
     pub scatter: bool,
+    /// Ratio tracking (an unbiased frame of emission-absorption, absorption
+    /// or emission, front to back): Poisson points instead of midpoints.
+    pub unbiased: bool,
+    /// With `unbiased`: each cell's majorant code (`occupancy::majorant_code`,
+    /// 0 where empty), cells as `cells` and followed by three readable
+    /// bytes, where segments take their cells' rates; None: the frame's
+    /// rate everywhere.
+    pub majorants: Option<&'a [u8]>,
 }
 
 /// What a native frame took.
@@ -286,6 +296,14 @@ pub fn render(
     assert!(p.max_steps <= MAX_STEPS, "the native march takes at most {MAX_STEPS} steps a ray");
     if let Some((codes, dims)) = frame.cells {
         assert!(codes.len() >= dims.iter().product::<usize>() + 3, "occupancy codes need 3 bytes of padding");
+    }
+    if let Some(majorants) = frame.majorants {
+        let cells = frame.cells.map(|(_, dims)| dims.iter().product::<usize>());
+        assert!(cells.is_some_and(|n| majorants.len() >= n + 3), "majorant codes need 3 bytes of padding");
+    }
+    if frame.unbiased {
+        let models = [Model::EmissionAbsorption, Model::Absorption, Model::Emission];
+        assert!(models.contains(&frame.model) && frame.preint.is_none(), "unbiased frames' models");
     }
     if let Some(t) = frame.preint {
         let rows = crate::preintegrate::wrapped_rows(p.lut_size as usize, t.side);
@@ -409,6 +427,9 @@ fn march_row(
             }
             if frame.model.projects() {
                 return with_reader!(&frame.volume.texels, t => projection::project(frame, t, col0, row, out, halt));
+            }
+            if frame.unbiased {
+                return with_reader!(&frame.volume.texels, t => tracking::track(frame, t, col0, row, out, halt));
             }
             with_reader!(&frame.volume.texels, t => avx2::march(frame, t, col0, row, out, halt))
         }

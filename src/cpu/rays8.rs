@@ -26,19 +26,23 @@ pub struct Rays {
     pub hit: __m256,
 }
 
+/// model::hash32 in eight lanes.
+#[inline]
+#[target_feature(enable = "avx2,fma,f16c")]
+pub fn hash32(mut x: __m256i) -> __m256i {
+    x = _mm256_xor_si256(x, _mm256_srli_epi32::<16>(x));
+    x = _mm256_mullo_epi32(x, _mm256_set1_epi32(0x7feb_352d));
+    x = _mm256_xor_si256(x, _mm256_srli_epi32::<15>(x));
+    x = _mm256_mullo_epi32(x, _mm256_set1_epi32(0x846c_a68b_u32 as i32));
+    _mm256_xor_si256(x, _mm256_srli_epi32::<16>(x))
+}
+
 /// model::jitter_shift in eight lanes.
 #[inline]
 #[target_feature(enable = "avx2,fma,f16c")]
 fn jitter_shift(cols: __m256i, row: u32, seed: u32) -> __m256 {
-    let hash = |mut x: __m256i| {
-        x = _mm256_xor_si256(x, _mm256_srli_epi32::<16>(x));
-        x = _mm256_mullo_epi32(x, _mm256_set1_epi32(0x7feb_352d));
-        x = _mm256_xor_si256(x, _mm256_srli_epi32::<15>(x));
-        x = _mm256_mullo_epi32(x, _mm256_set1_epi32(0x846c_a68b_u32 as i32));
-        _mm256_xor_si256(x, _mm256_srli_epi32::<16>(x))
-    };
     let inner = crate::model::hash32(row ^ crate::model::hash32(seed));
-    let h = hash(_mm256_xor_si256(cols, _mm256_set1_epi32(inner as i32)));
+    let h = hash32(_mm256_xor_si256(cols, _mm256_set1_epi32(inner as i32)));
     let unit = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_srli_epi32::<8>(h)), _mm256_set1_ps(1.0 / 16_777_216.0));
     _mm256_xor_ps(unit, _mm256_set1_ps(-0.0))
 }
@@ -243,6 +247,8 @@ mod tests {
                 refine: 0,
                 power: false,
                 scatter: false,
+                unbiased: false,
+                majorants: None,
             };
             for row in 0..p.height {
                 for col0 in (0..p.width).step_by(TILE) {

@@ -648,6 +648,11 @@ pub struct Occupancy {
     /// reads each code as the low byte of a 32-bit word).
     pub dims: [usize; 3],
     pub codes: Vec<u8>,
+    /// Each cell's code as the texture's first channel holds it: 0 where
+    /// empty, else 1, or the cell's majorant (`occupancy::majorant_code`)
+    /// where unbiased frames' segments take their cells' rates; followed by
+    /// three zero bytes, as `codes`.
+    pub majorants: Vec<u8>,
 }
 
 impl Occupancy {
@@ -660,6 +665,7 @@ impl Occupancy {
             occupied: None,
             dims: [0; 3],
             codes: Vec::new(),
+            majorants: Vec::new(),
         }
     }
 
@@ -697,6 +703,7 @@ impl Occupancy {
         self.dims = grid.dims;
         radius.extend([0; 3]);
         self.codes = radius;
+        self.majorants = occ.iter().copied().chain([0; 3]).collect();
         self.view = Some(view);
         self.source = Some(source);
         Ok(data.len() as u64)

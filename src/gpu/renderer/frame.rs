@@ -101,7 +101,9 @@ impl GpuRenderer {
             && shading
             && (projects || iso || composites)
             && (!variant.pre_integrated || variant.model == Model::EmissionAbsorption)
-            && !variant.unbiased
+            // Unbiased frames' points are drawn front to back only.
+            && !(variant.unbiased && (variant.back_to_front || variant.pre_integrated))
+            && !(variant.cell_rates && self.occupancy.majorants.is_empty())
             && self.tables.rows.len() >= 2
             && cfg.max_steps <= crate::cpu::MAX_STEPS as i64
     }
@@ -146,6 +148,8 @@ impl GpuRenderer {
             refine: if variant.pre_integrated { variant.refine } else { 0 },
             power: variant.correction == OpacityCorrection::Power,
             scatter: model == CpuModel::SingleScattering && variant.shading != Shading::AmbientOnly,
+            unbiased: variant.unbiased,
+            majorants: (variant.unbiased && variant.cell_rates && cells).then_some(&occ.majorants[..]),
         };
         let mut depth = if iso { Some(try_vec(out.len() / 4, f32::INFINITY, "the depth image")?) } else { None };
         let s = crate::cpu::render(&frame, bytemuck::cast_slice_mut(out), depth.as_deref_mut(), stop)
