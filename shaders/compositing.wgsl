@@ -503,7 +503,8 @@ fn march_integrate(r: Ray) {
     var taken = 0u;
     // Past the window of occupied cells the ray is done: it ends as if it
     // had marched every segment (and reports a cut short by max_steps so).
-    let window = occupied_window(r);
+    // (Pre-integrated segments count from end to end.)
+    let window = occupied_window(r, select(0.0, 0.5, PRE_INTEGRATED));
     var ray = r;
     if (max(r.begin, window.x) >= window.y) {
         ray.end = r.n;

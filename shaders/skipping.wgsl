@@ -62,14 +62,16 @@ fn exit_of_cube(tc: vec3<f32>, d: vec3<f32>, radius_code: u32) -> f32 {
 }
 
 // March indices [a, b) outside which every segment is empty: those of the
-// ray's segments whose midpoints (or, pre-integrated, any of whose points)
-// may lie in the box of cells that are not empty (Params.occupied_*). A ray
+// ray's segments whose points up to `reach` steps from their midpoints (0:
+// the midpoint; 0.5: any point, as pre-integrated segments and unbiased
+// frames' Poisson points need) may lie in the box of cells that are not
+// empty (Params.occupied_*). A ray
 // marches from a and is done at b. (0, r.n) where the box is not known;
 // (0, 0) where the ray misses it. Nominal segments, from (k + shift) to
 // (k + shift + 1) steps past the entry, are compared a thousandth of a step
 // generously, as leaps do; the chord's first and last segments, which may
 // be shorter, stay in whenever their neighbours are.
-fn occupied_window(r: Ray) -> vec2<u32> {
+fn occupied_window(r: Ray, reach: f32) -> vec2<u32> {
     if (!SKIP_EMPTY || P.bricked == 1u || P.occupied_hi.w != 1.0) {
         return vec2<u32>(0u, r.n);
     }
@@ -94,8 +96,6 @@ fn occupied_window(r: Ray) -> vec2<u32> {
         return vec2<u32>(0u);
     }
     let h = P.step_size;
-    // Steps from a segment's midpoint to the farthest of its points that count.
-    let reach = select(0.0, 0.5, PRE_INTEGRATED);
     var lo = u32(clamp(ceil(a / h - 0.5 - reach - r.shift - 1e-3), 0.0, f32(r.n)));
     var hi = u32(clamp(floor(b / h - 0.5 + reach - r.shift + 1e-3) + 1.0, 0.0, f32(r.n)));
     if (lo <= 1u) {

@@ -115,6 +115,18 @@ fn march_tracking(r: Ray) {
         si_lo = r.n - r.end;
         si_hi = r.n - 1u - r.begin;
     }
+    // Points outside the segments that reach occupied cells lie in empty
+    // ones and add nothing: the walk keeps to those segments (in grid order).
+    var occupied = occupied_window(r, 0.5);
+    if (BACK_TO_FRONT) {
+        occupied = vec2<u32>(r.n - occupied.y, r.n - occupied.x);
+    }
+    if (occupied.y == 0u || max(si_lo, occupied.x) > min(si_hi, occupied.y - 1u)) {
+        end_integration(r, &s, stopped, taken);
+        return;
+    }
+    si_lo = max(si_lo, occupied.x);
+    si_hi = min(si_hi, occupied.y - 1u);
     let w_lo = span(r, si_lo).x;
     let hi_span = span(r, si_hi);
     let w_hi = hi_span.x + hi_span.y;

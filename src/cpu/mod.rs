@@ -532,7 +532,7 @@ impl Ray {
         let h = p.step_size;
         let n = self.n as f32;
         // Steps from a segment's midpoint to the farthest of its points that count.
-        let reach = if frame.preint.is_some() { 0.5 } else { 0.0 };
+        let reach = if frame.preint.is_some() || frame.unbiased { 0.5 } else { 0.0 };
         let mut lo = (a / h - (0.5 + reach) - self.shift - 1e-3).ceil().clamp(0.0, n) as u32;
         let mut hi = ((b / h - (0.5 - reach) - self.shift + 1e-3).floor() + 1.0).clamp(0.0, n) as u32;
         if lo <= 1 {

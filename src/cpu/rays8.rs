@@ -160,7 +160,7 @@ fn occupied_window(
     let nf = _mm256_cvtepi32_ps(n);
     let clamp = |x: __m256| _mm256_cvttps_epi32(_mm256_min_ps(_mm256_max_ps(x, zero), nf));
     // Steps from a segment's midpoint to the farthest of its points that count.
-    let reach = if frame.preint.is_some() { 0.5 } else { 0.0 };
+    let reach = if frame.preint.is_some() || frame.unbiased { 0.5 } else { 0.0 };
     let lo_f = _mm256_sub_ps(_mm256_sub_ps(_mm256_sub_ps(_mm256_div_ps(a, h), set(0.5 + reach)), shift), set(1e-3));
     let mut lo = clamp(_mm256_ceil_ps(lo_f));
     let hi_f = _mm256_add_ps(_mm256_sub_ps(_mm256_sub_ps(_mm256_div_ps(b, h), set(0.5 - reach)), shift), set(1e-3));

@@ -89,7 +89,7 @@ pub unsafe fn track<T: Texels>(
     let shift_v = _mm_cvtsi32_si128(block_shift);
     let last_segment = _mm256_sub_epi32(n, onei);
     let w_hi = {
-        let (a, len) = spans.span(_mm256_max_epi32(last_segment, zi));
+        let (a, len) = spans.span(_mm256_max_epi32(_mm256_sub_epi32(rays.hi, onei), zi));
         _mm256_add_ps(a, len)
     };
     let block_span = |k: __m256i| -> (__m256, __m256) {
@@ -172,10 +172,11 @@ pub unsafe fn track<T: Texels>(
 
     // The walk: block k (its span, stream and rate), the next point at
     // distance u past its start, points before skip_to passed.
-    let (mut k, mut state) = (zi, zi);
-    let (mut bstart, mut blen, mut rate, mut u, mut skip_to) = (zero, zero, zero, zero, zero);
+    let (mut k, mut state) = (_mm256_srl_epi32(rays.lo, shift_v), zi);
+    let (mut bstart, mut blen, mut rate, mut u) = (zero, zero, zero, zero);
+    let mut skip_to = spans.span(rays.lo).0;
     let mut entered = zero;
-    let mut done = _mm256_or_ps(_mm256_xor_ps(rays.hit, yes), as_ps(_mm256_cmpgt_epi32(onei, n)));
+    let mut done = _mm256_or_ps(_mm256_xor_ps(rays.hit, yes), as_ps(_mm256_cmpgt_epi32(_mm256_add_epi32(rays.lo, onei), rays.hi)));
     // The sums (compositing.wgsl `Integration`).
     let (mut color, mut color_b) = ([zero; 3], [zero; 3]);
     let (mut tau, mut tau_b, mut trans) = (zero, zero, one);
