@@ -14,8 +14,9 @@
 //! light or a directional or point one lighting from normals (or
 //! gradients) held in the texels or from central differences of the
 //! values, with or without jitter, skipping and uniform runs, the
-//! maximum, minimum and average intensity projections (`projection`) and
-//! the isosurface (`isosurface`), from a volume held in one texture
+//! maximum, minimum and average intensity projections (`projection`), the
+//! isosurface (`isosurface`) and unbiased frames marched front to back
+//! (`tracking`), from a volume held in one texture
 //! (float32, float16 or 16-bit fixed-point texels, or 8- and 16-bit codes).
 //! Everything else stays on the GPU path, whose images these match
 //! (tests/test_native_march.py).
