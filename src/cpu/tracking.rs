@@ -13,11 +13,15 @@ use super::{Frame, Model, Stats, CELL, TILE};
 use crate::occupancy::UNIFORM_FLAG;
 use std::arch::x86_64::*;
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::LazyLock;
 
 /// Samples per partial sum: 2^BLOCK_SHIFT (compositing.wgsl).
 const BLOCK_SHIFT: i32 = 8;
 /// Rounds of the search for the next points between looks at the halt flag.
 const ROUNDS_PER_LOOK: u32 = 1 << 16;
+/// Each majorant code's rate, 2^((q - 128) / 16) per reference step
+/// (`occupancy::majorant_code`).
+static CODE_RATES: LazyLock<[f32; 256]> = LazyLock::new(|| std::array::from_fn(|q| ((q as f32 - 128.0) / 16.0).exp2()));
 
 /// (f32(x >> 8) + 0.5) / 2^24 of eight 32-bit words: uniform in (0, 1].
 #[inline]
@@ -128,8 +132,6 @@ pub unsafe fn track<T: Texels>(
     // A byte per cell, read as the low byte of a 32-bit word.
     let cell_byte = |codes: *const i32, at: __m256i| _mm256_and_si256(_mm256_i32gather_epi32::<1>(codes, at), seti(0xff));
     let skip_empty = f.skip_empty && !cells.is_null();
-    // Each majorant code's rate, 2^((q - 128) / 16) per reference step.
-    let code_rates: [f32; 256] = std::array::from_fn(|q| ((q as f32 - 128.0) / 16.0).exp2());
     // A block's rate (tracking.wgsl `segment_rate`): its midpoint cell's
     // majorant between a point a step and the frame's rate; 0 for an empty
     // cell when leaping.
@@ -140,7 +142,7 @@ pub unsafe fn track<T: Texels>(
         };
         let (at, _, _) = cell_of(_mm256_fmadd_ps(blen, set(0.5), bstart));
         let q = cell_byte(majorants.as_ptr() as *const i32, at);
-        let own = _mm256_mul_ps(_mm256_i32gather_ps::<4>(code_rates.as_ptr(), q), set(p.inv_ref));
+        let own = _mm256_mul_ps(_mm256_i32gather_ps::<4>(CODE_RATES.as_ptr(), q), set(p.inv_ref));
         let frame_rate = _mm256_or_si256(_mm256_cmpeq_epi32(q, zi), _mm256_cmpeq_epi32(q, seti(255)));
         let rate = _mm256_blendv_ps(own, track_rate, as_ps(frame_rate));
         let rate = _mm256_min_ps(_mm256_max_ps(rate, set(1.0 / p.step_size)), track_rate);
