@@ -156,6 +156,9 @@ CONFIGS = {
     "unbiased_power": {"unbiased": True, "early_ray_termination": False, "opacity_correction": "power"},
     "unbiased_absorption": {"unbiased": True, "early_ray_termination": False, "model": "absorption"},
     "unbiased_emission": {"unbiased": True, "model": "emission"},
+    # Blocks and their points from the far end, composited back to front, as the shader's.
+    "unbiased_back_to_front": {"unbiased": True, "order": "back_to_front"},
+    "unbiased_back_to_front_jitter": {"unbiased": True, "order": "back_to_front", "jitter": True, "step_size": 0.03},
 }
 # Frames whose sample counts may differ, compared by their images: the
 # shader marches back-to-front frames from the far end, where its leaps
@@ -376,16 +379,18 @@ def test_native_single_scattering_matches_the_shader(kind):
             assert np.abs(unshadowed - native[0]).max() > 10 * LEVEL
 
 
-@pytest.mark.parametrize("changes, light", [
-    # Unbiased points are drawn from the far end there.
-    ({"unbiased": True, "order": "back_to_front"}, None),
-])
-def test_frames_the_native_march_does_not_cover_stay_on_the_shader(changes, light):
-    r = renderer("normals_fixed16")
-    if light is not None:
-        r.set_light(light)
-    r.render(config=RenderConfig.balanced().replace(**changes))
+def test_frames_the_native_march_does_not_cover_stay_on_the_shader():
+    # Integer values lit from normals stored apart (precision "float32":
+    # an 8-bit texture and one of float32 normals) take the shader's two
+    # fetches; lit by their gradients instead, or unlit, they are native.
+    d = sphere_pair()
+    r = VolumeRenderer(72, 64, light=Light.directional([-0.6, -0.3, -0.8], ambient=0.25, diffuse=0.75))
+    r.load_volume(Volume(np.round(d * 255).astype(np.uint8), compute_normal_volume(d), *BOX), precision="float32")
+    r.set_transfer_functions(ColorTransferFunction.from_colormap("viridis"), OpacityTransferFunction.linear(0.0, 0.4))
+    r.native_march = True
+    r.render()
     assert r.last_frame_stats["engine"] == "gpu"
+    r.set_light(Light.ambient_only(0.9))
     r.render()
     assert r.last_frame_stats["engine"] == "native"
 
@@ -430,6 +435,9 @@ def test_native_unbiased_cell_rates_match_the_shader(kind):
         native, shader = both(r, cfg)
         assert_same(native, shader, f"{kind}, skipping {skip}")
         counts.append(native[1]["samples"])
+        # Points drawn from the far end, composited back to front.
+        native, shader = both(r, cfg.replace(order="back_to_front"))
+        assert_same(native, shader, f"{kind}, skipping {skip}, back to front")
     # Leaps pass the empty cells' points; between 1 and 16 points a step.
     steps = both(r, cfg.replace(unbiased=False))[0][1]["samples"]
     assert counts[0] < counts[1] and 1.5 * steps < counts[1] < 16 * steps, (counts, steps)

@@ -15,8 +15,8 @@
 //! gradients) held in the texels or from central differences of the
 //! values, with or without jitter, skipping and uniform runs, the
 //! maximum, minimum and average intensity projections (`projection`), the
-//! isosurface (`isosurface`) and unbiased frames marched front to back
-//! (`tracking`), from a volume held in one texture
+//! isosurface (`isosurface`) and unbiased frames (`tracking`), from a
+//! volume held in one texture
 //! (float32, float16 or 16-bit fixed-point texels, or 8- and 16-bit codes).
 //! Everything else stays on the GPU path, whose images these match
 //! (tests/test_native_march.py).
@@ -212,8 +212,12 @@ pub struct Frame<'a> {
     /// light lets through, by the phase function (else ambient light only).
     pub scatter: bool,
     /// Ratio tracking (an unbiased frame of emission-absorption, absorption
-    /// or emission, front to back): Poisson points instead of midpoints.
+    /// or emission): Poisson points instead of midpoints.
     pub unbiased: bool,
+    /// With `unbiased`: the points are drawn and composited from the far
+    /// end, as the shader's are (other frames marched back to front are
+    /// marched front to back here, the same segments and sum).
+    pub back_to_front: bool,
     /// With `unbiased`: each cell's majorant code (`occupancy::majorant_code`,
     /// 0 where empty), cells as `cells` and followed by three readable
     /// bytes, where segments take their cells' rates; None: the frame's

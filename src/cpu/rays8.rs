@@ -248,6 +248,7 @@ mod tests {
                 power: false,
                 scatter: false,
                 unbiased: false,
+                back_to_front: false,
                 majorants: None,
             };
             for row in 0..p.height {

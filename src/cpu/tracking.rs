@@ -45,7 +45,7 @@ fn next_gap(state: __m256i, rate: __m256) -> (__m256, __m256i) {
 }
 
 /// Pixels col0..col0 + 8 of `row` of an unbiased frame (emission–absorption,
-/// absorption or emission, front to back; one pass, one texture).
+/// absorption or emission, either marching order; one pass, one texture).
 ///
 /// Stops early (its pixels then are garbage) once `halt` is set.
 ///
@@ -152,9 +152,12 @@ pub unsafe fn track<T: Texels>(
             rate
         }
     };
-    // Ray parameter from `at` to where the ray leaves the empty cube around
-    // its cell (skipping.wgsl `empty_cell_exit`), and the lanes whose cell is empty.
-    let ahead: [__m256; 3] = std::array::from_fn(|k| _mm256_cmp_ps::<_CMP_GT_OQ>(per[k], zero));
+    // Ray parameter from `at` to where the ray, marching on, leaves the
+    // empty cube around its cell (skipping.wgsl `empty_cell_exit`), and the
+    // lanes whose cell is empty.
+    let back = f.back_to_front;
+    let ahead: [__m256; 3] =
+        std::array::from_fn(|k| _mm256_cmp_ps::<_CMP_GT_OQ>(if back { _mm256_sub_ps(zero, per[k]) } else { per[k] }, zero));
     let moving: [__m256; 3] = std::array::from_fn(|k| _mm256_cmp_ps::<_CMP_NEQ_OQ>(per[k], zero));
     let per_voxel: [__m256; 3] = std::array::from_fn(|k| _mm256_div_ps(one, _mm256_blendv_ps(one, per[k], moving[k])));
     let empty_exit = |at: __m256| -> (__m256, __m256) {
@@ -167,16 +170,21 @@ pub unsafe fn track<T: Texels>(
             let lo = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_sub_epi32(c[k], _mm256_sub_epi32(radius, onei))), set(CELL));
             let up = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_add_epi32(c[k], radius)), set(CELL));
             let tk = _mm256_mul_ps(_mm256_sub_ps(_mm256_blendv_ps(lo, up, ahead[k]), uc[k]), per_voxel[k]);
+            let tk = if back { _mm256_sub_ps(zero, tk) } else { tk };
             exit = _mm256_min_ps(exit, _mm256_blendv_ps(set(3.0e38), tk, moving[k]));
         }
         (_mm256_max_ps(exit, zero), as_ps(_mm256_cmpgt_epi32(radius, zi)))
     };
 
     // The walk: block k (its span, stream and rate), the next point at
-    // distance u past its start, points before skip_to passed.
-    let (mut k, mut state) = (_mm256_srl_epi32(rays.lo, shift_v), zi);
+    // distance u from its near end in the march direction, points before
+    // skip_to (in that direction) passed. Back to front, the blocks and
+    // their points are taken from the far end.
+    let w_lo = spans.span(rays.lo).0;
+    let (mut k, mut state) = (_mm256_srl_epi32(if back { _mm256_sub_epi32(rays.hi, onei) } else { rays.lo }, shift_v), zi);
     let (mut bstart, mut blen, mut rate, mut u) = (zero, zero, zero, zero);
-    let mut skip_to = spans.span(rays.lo).0;
+    let mut skip_to = if back { w_hi } else { w_lo };
+    let first_block = _mm256_srl_epi32(rays.lo, shift_v);
     let mut entered = zero;
     let mut done = _mm256_or_ps(_mm256_xor_ps(rays.hit, yes), as_ps(_mm256_cmpgt_epi32(_mm256_add_epi32(rays.lo, onei), rays.hi)));
     // The sums (compositing.wgsl `Integration`).
@@ -216,16 +224,26 @@ pub unsafe fn track<T: Texels>(
                 entered = _mm256_or_ps(entered, enter);
             }
             let exhausted = _mm256_and_ps(pending, _mm256_cmp_ps::<_CMP_GE_OQ>(u, blen));
-            let next_block = _mm256_add_epi32(k, onei);
-            let beyond = as_ps(_mm256_cmpgt_epi32(_mm256_sll_epi32(next_block, shift_v), last_segment));
+            let (next_block, beyond) = if back {
+                (_mm256_sub_epi32(k, onei), as_ps(_mm256_cmpgt_epi32(_mm256_add_epi32(first_block, onei), k)))
+            } else {
+                let next = _mm256_add_epi32(k, onei);
+                (next, as_ps(_mm256_cmpgt_epi32(_mm256_sll_epi32(next, shift_v), _mm256_sub_epi32(rays.hi, onei))))
+            };
             let last = _mm256_and_ps(exhausted, beyond);
             let moves = _mm256_andnot_ps(beyond, exhausted);
             k = as_si(_mm256_blendv_ps(as_ps(k), as_ps(next_block), moves));
             entered = _mm256_andnot_ps(moves, entered);
             let candidate = _mm256_andnot_ps(exhausted, pending);
-            let a = _mm256_add_ps(bstart, u);
-            let past = _mm256_and_ps(candidate, _mm256_cmp_ps::<_CMP_GE_OQ>(a, w_hi));
-            let point = _mm256_andnot_ps(past, _mm256_and_ps(candidate, _mm256_cmp_ps::<_CMP_GE_OQ>(a, skip_to)));
+            let (a, past, point) = if back {
+                let a = _mm256_sub_ps(_mm256_add_ps(bstart, blen), u);
+                (a, _mm256_cmp_ps::<_CMP_LT_OQ>(a, w_lo), _mm256_cmp_ps::<_CMP_LT_OQ>(a, skip_to))
+            } else {
+                let a = _mm256_add_ps(bstart, u);
+                (a, _mm256_cmp_ps::<_CMP_GE_OQ>(a, w_hi), _mm256_cmp_ps::<_CMP_GE_OQ>(a, skip_to))
+            };
+            let past = _mm256_and_ps(candidate, past);
+            let point = _mm256_andnot_ps(past, _mm256_and_ps(candidate, point));
             let passed = _mm256_andnot_ps(_mm256_or_ps(past, point), candidate);
             done = _mm256_or_ps(done, _mm256_or_ps(last, past));
             found = _mm256_or_ps(found, point);
@@ -273,8 +291,13 @@ pub unsafe fn track<T: Texels>(
             if any(idle) {
                 let (exit, empty) = empty_exit(at);
                 let leap = _mm256_and_ps(idle, empty);
-                skip_to = _mm256_blendv_ps(skip_to, _mm256_fnmadd_ps(set(1e-3), h, _mm256_add_ps(at, exit)), leap);
-                let next = _mm256_max_epi32(block_at(skip_to), k);
+                let landing = if back {
+                    _mm256_fmadd_ps(set(1e-3), h, _mm256_sub_ps(at, exit))
+                } else {
+                    _mm256_fnmadd_ps(set(1e-3), h, _mm256_add_ps(at, exit))
+                };
+                skip_to = _mm256_blendv_ps(skip_to, landing, leap);
+                let next = if back { _mm256_min_epi32(block_at(skip_to), k) } else { _mm256_max_epi32(block_at(skip_to), k) };
                 let moved = _mm256_andnot_ps(as_ps(_mm256_cmpeq_epi32(next, k)), leap);
                 k = as_si(_mm256_blendv_ps(as_ps(k), as_ps(next), moved));
                 entered = _mm256_andnot_ps(moved, entered);
@@ -299,10 +322,18 @@ pub unsafe fn track<T: Texels>(
             ambient
         };
         let add = add.map(|c| _mm256_blendv_ps(c, _mm256_mul_ps(c, light), shows));
-        // compositing.wgsl `composite`, front to back.
-        let weight = _mm256_and_ps(trans, live);
-        for c in 0..3 {
-            color_b[c] = _mm256_fmadd_ps(weight, add[c], color_b[c]);
+        // compositing.wgsl `composite`: back to front C = c + e^-x C (the
+        // emission model's sum alone), else front to back.
+        if back {
+            let behind = if emission { one } else { exp_nonpositive(_mm256_sub_ps(zero, x)) };
+            for c in 0..3 {
+                color[c] = _mm256_blendv_ps(color[c], _mm256_fmadd_ps(behind, color[c], add[c]), live);
+            }
+        } else {
+            let weight = _mm256_and_ps(trans, live);
+            for c in 0..3 {
+                color_b[c] = _mm256_fmadd_ps(weight, add[c], color_b[c]);
+            }
         }
         if !emission {
             tau_b = _mm256_add_ps(tau_b, _mm256_and_ps(x, live));
@@ -318,7 +349,7 @@ pub unsafe fn track<T: Texels>(
             tau = _mm256_add_ps(tau, _mm256_and_ps(tau_b, fold));
             tau_b = _mm256_andnot_ps(fold, tau_b);
         }
-        if emission {
+        if emission || back {
             continue;
         }
         let total = _mm256_add_ps(tau, tau_b);

@@ -101,8 +101,7 @@ impl GpuRenderer {
             && shading
             && (projects || iso || composites)
             && (!variant.pre_integrated || variant.model == Model::EmissionAbsorption)
-            // Unbiased frames' points are drawn front to back only.
-            && !(variant.unbiased && (variant.back_to_front || variant.pre_integrated))
+            && !(variant.unbiased && variant.pre_integrated)
             && !(variant.cell_rates && self.occupancy.majorants.is_empty())
             && self.tables.rows.len() >= 2
             && cfg.max_steps <= crate::cpu::MAX_STEPS as i64
@@ -149,6 +148,7 @@ impl GpuRenderer {
             power: variant.correction == OpacityCorrection::Power,
             scatter: model == CpuModel::SingleScattering && variant.shading != Shading::AmbientOnly,
             unbiased: variant.unbiased,
+            back_to_front: variant.unbiased && variant.back_to_front,
             majorants: (variant.unbiased && variant.cell_rates && cells).then_some(&occ.majorants[..]),
         };
         let mut depth = if iso { Some(try_vec(out.len() / 4, f32::INFINITY, "the depth image")?) } else { None };
