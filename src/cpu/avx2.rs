@@ -527,6 +527,41 @@ pub(super) fn lit_by(texel: &[__m256; 4], light_dir: &[__m256; 3], ambient: __m2
     _mm256_blendv_ps(ambient, _mm256_fmadd_ps(diffuse, cos, ambient), lit)
 }
 
+/// The light a sample at ray offset `at` takes (lighting.wgsl): lit from
+/// its texel's normal, or from the field's gradient at voxel coordinates
+/// `u` where the frame takes gradients, by the frame's directional or point
+/// light; ambient alone where the frame is unlit.
+///
+/// # Safety
+/// Needs AVX2, FMA and F16C, and `tex` the padding its reads need.
+#[inline]
+#[target_feature(enable = "avx2,fma,f16c")]
+#[allow(clippy::too_many_arguments)]
+pub(super) unsafe fn sample_light<T: Texels>(
+    f: &Frame,
+    tex: &T,
+    rays: &super::rays8::Rays,
+    u: &[__m256; 3],
+    texel: &[__m256; 4],
+    at: __m256,
+    hi: &[__m256i; 3],
+    stride: &[__m256i; 3],
+) -> __m256 {
+    let p = f.params;
+    let (ambient, diffuse) = (_mm256_set1_ps(p.ambient), _mm256_set1_ps(p.diffuse));
+    // SAFETY: the caller's contract.
+    let normal = || if f.gradient { unsafe { gradient_at(tex, p, u, texel[0], hi, stride) } } else { *texel };
+    if f.lit && !f.point_light && p.light_valid == 1 {
+        let light_dir: [__m256; 3] = std::array::from_fn(|k| _mm256_set1_ps(p.light_dir[k]));
+        lit_by(&normal(), &light_dir, ambient, diffuse)
+    } else if f.lit && f.point_light {
+        let (travel, defined) = point_light_travel(p, rays, at);
+        _mm256_blendv_ps(ambient, lit_by(&normal(), &travel, ambient, diffuse), defined)
+    } else {
+        ambient
+    }
+}
+
 /// The unit direction a point light at `light_pos` travels at ray
 /// parameter `at` past the chords' start, and where it is defined (away
 /// from the light itself): sampling.wgsl `direction_and_length`, scaled by
@@ -679,8 +714,6 @@ pub unsafe fn march<T: Texels>(
     let seg_unit = _mm256_set1_ps(p.inv_ref);
     let light_dir: [__m256; 3] = std::array::from_fn(|k| _mm256_set1_ps(p.light_dir[k]));
     let (ambient, diffuse) = (_mm256_set1_ps(p.ambient), _mm256_set1_ps(p.diffuse));
-    let directional = f.lit && !f.point_light && p.light_valid == 1;
-    let point = f.lit && f.point_light;
     let scatters = f.model == Model::SingleScattering && f.scatter;
     let threshold = _mm256_set1_ps(p.threshold);
     let cell = _mm256_set1_ps(1.0 / CELL);
@@ -721,7 +754,6 @@ pub unsafe fn march<T: Texels>(
         _mm256_mul_ps(r, _mm256_set1_ps(0.5 * p.step_size))
     };
     let lut_entry = |v: __m256| lut_rgba(f.lut, v);
-    let gradient_at = |u: &[__m256; 3], value: __m256| gradient_at(tex, p, u, value, &hi, &stride);
     // The opacity alone, as lut_entry interpolates it (two gathers).
     let lut_alpha = |v: __m256| -> __m256 {
         let xl = _mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(v, zero), one), lut_scale);
@@ -1025,18 +1057,8 @@ pub unsafe fn march<T: Texels>(
             let v = _mm256_fmadd_ps(texel[0], value_scale, value_offset);
             let valid = _mm256_cmp_ps::<_CMP_ORD_Q>(v, v);
             // The normal lit samples take: the texel's, or the field's gradient.
-            let normal = |texel: [__m256; 4]| if f.gradient { gradient_at(&u, texel[0]) } else { texel };
             // Scattered light comes after the segment's extinction is known.
-            let light = if scatters {
-                one
-            } else if directional {
-                lit_by(&normal(texel), &light_dir, ambient, diffuse)
-            } else if point {
-                let (travel, defined) = point_light_travel(p, &rays, at);
-                _mm256_blendv_ps(ambient, lit_by(&normal(texel), &travel, ambient, diffuse), defined)
-            } else {
-                ambient
-            };
+            let light = if scatters { one } else { sample_light(f, tex, &rays, &u, &texel, at, &hi, &stride) };
             // The midpoint rule (every segment of a plain frame, the shorter
             // end segments of a pre-integrated one): optical depth and colour.
             let midpoint = |seg: __m256| -> (__m256, [__m256; 3]) {

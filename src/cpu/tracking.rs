@@ -5,8 +5,8 @@
 //! logarithms; then the eight points are read, lit and composited together.
 
 use super::avx2::{
-    corners, exp_nonpositive, gradient_at, int_lanes, lanes, lit_by, ln, lut_rgba, neg_log_one_minus,
-    point_light_travel, voxel_axes, Spans, Texels,
+    corners, exp_nonpositive, int_lanes, lanes, ln, lut_rgba, neg_log_one_minus, sample_light, voxel_axes, Spans,
+    Texels,
 };
 use super::rays8::hash32;
 use super::{Frame, Model, Stats, CELL, TILE};
@@ -78,9 +78,6 @@ pub unsafe fn track<T: Texels>(
     let stride = tex.strides(dims).map(|s| seti(s));
     let value_scale = set(p.value_scale * T::VALUE_UNIT);
     let value_offset = set(p.value_offset);
-    let light_dir: [__m256; 3] = std::array::from_fn(|k| set(p.light_dir[k]));
-    let (ambient, diffuse) = (set(p.ambient), set(p.diffuse));
-    let directional = f.lit && !f.point_light && p.light_valid == 1;
     let h = set(p.step_size);
 
     // Each lane's ray: its pixel's index, segments, window end and blocks.
@@ -308,19 +305,7 @@ pub unsafe fn track<T: Texels>(
             continue;
         }
         // The light a point takes where it emits (compositing.wgsl `lit`).
-        let light = if f.lit {
-            let normal = if f.gradient { gradient_at(tex, p, &uv, texel[0], &hi, &stride) } else { texel };
-            if directional {
-                lit_by(&normal, &light_dir, ambient, diffuse)
-            } else if f.point_light {
-                let (travel, defined) = point_light_travel(p, &rays, at);
-                _mm256_blendv_ps(ambient, lit_by(&normal, &travel, ambient, diffuse), defined)
-            } else {
-                ambient
-            }
-        } else {
-            ambient
-        };
+        let light = sample_light(f, tex, &rays, &uv, &texel, at, &hi, &stride);
         let add = add.map(|c| _mm256_blendv_ps(c, _mm256_mul_ps(c, light), shows));
         // compositing.wgsl `composite`: back to front C = c + e^-x C (the
         // emission model's sum alone), else front to back.
