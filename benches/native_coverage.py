@@ -3,8 +3,9 @@ benchmark frame of benches/native_march.py: back-to-front order, the power
 opacity correction, single scattering's shadow rays, gradients taken from
 central differences at each lit sample, float16 values, and 8-bit volumes
 kept as 8-bit codes (fuel.vti's own storage, and the benchmark's double
-sphere quantised to it), or lit from their gradients, which the native
-march's renderer stores beside the values; and the benchmark scene stored
+sphere quantised to it), lit from their gradients, which the native
+march's renderer stores beside the values, or (at precision "float32")
+from normals stored apart from the codes (a texture of 8-bit normals); and the benchmark scene stored
 as float16 and float32 (value, normal) texels, which the march reads a ray
 at a time; and unbiased frames (ratio tracking), without early termination
 so that both engines draw the same points (with it, the roulette's numbers
@@ -72,6 +73,11 @@ def cases(size):
          renderer(Volume(np.round(ds * 255).astype(np.uint8), None, *BOX), Light.ambient_only(1.0),
                   OpacityTransferFunction.linear(0.0, 0.1), size), balanced),
         ("double sphere 256^3 as uint8, mip", None, balanced.replace(model="mip")),
+        # 8-bit codes with normals at precision "float32" (by default they
+        # are packed as 16-bit fixed point): normals in a texture of their own.
+        ("double sphere 256^3 as uint8, lit from normals stored apart",
+         renderer(Volume(np.round(ds * 255).astype(np.uint8), compute_normal_volume(ds), *BOX), Light.default(),
+                  OpacityTransferFunction.linear(0.0, 0.1), size, precision="float32"), balanced),
         # Values alone, lit: fixed16 texels hold no gradients, so each lit
         # sample takes central differences (six more reads) in both engines.
         ("double sphere 256^3 as fixed16, lit by central differences",
@@ -94,6 +100,9 @@ def cases(size):
             ("fuel.vti as uint8, lit from its gradients",
              tuple(renderer(fuel, Light.default(), OpacityTransferFunction.linear(0.0, 0.5), size, native)
                    for native in (False, True)), balanced),
+            ("fuel.vti as uint8, lit from normals stored apart",
+             renderer(Volume(fuel.data, compute_normal_volume(raw.astype(np.float32) / 255), *BOX), Light.default(),
+                      OpacityTransferFunction.linear(0.0, 0.5), size, precision="float32"), balanced),
             ("fuel.vti as uint8, single scattering (lit)",
              renderer(fuel, Light.default(), OpacityTransferFunction.linear(0.0, 0.5), size),
              balanced.replace(model="single_scattering")),

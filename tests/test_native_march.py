@@ -3,7 +3,7 @@
 Where wgpu's only adapter is a CPU, the frames the native march covers
 (src/cpu: emission-absorption, plain, pre-integrated or refined,
 single scattering, absorption and emission, in either order and either opacity correction, unlit or lit from
-the texels' normals or gradients, one texture; and the maximum, minimum and
+the texels' normals or gradients or from normals stored apart, one texture; and the maximum, minimum and
 average intensity projections) are its, not the shader's. Each case renders one frame both ways
 (``native_march`` on and off) and compares the premultiplied images and
 what the frames took. Both run the same rule in f32; they differ in the
@@ -62,6 +62,16 @@ def scene(kind):
         return Volume(np.round(d * 255).astype(np.uint8), None, *BOX), "float32", Light.ambient_only(0.9), ramp
     if kind == "values_uint16":
         return Volume(np.round(d * 65535).astype(np.uint16), None, *BOX), "float32", Light.ambient_only(0.9), ramp
+    # Integer codes and NaN-holding float32 values keep their normals apart
+    # (an Rgba8Snorm texture; the native march a copy of it).
+    if kind == "normals_uint8":
+        return Volume(np.round(d * 255).astype(np.uint8), compute_normal_volume(d), *BOX), "float32", lit, ramp
+    if kind == "normals_uint16":
+        return Volume(np.round(d * 65535).astype(np.uint16), compute_normal_volume(d), *BOX), "float32", lit, ramp
+    if kind == "normals_nan":
+        holed = d.copy()
+        holed[10:14, 12:15, 5:20] = np.nan
+        return Volume(holed, compute_normal_volume(d), *BOX), "float32", lit, ramp
     if kind == "plateau":
         # Flat opacity above 0.45: cells whose values all lie there are
         # uniform, and unlit frames composite runs through them whole.
@@ -78,7 +88,8 @@ def scene(kind):
 
 
 KINDS = ["normals_fixed16", "normals_float32", "normals_float16", "gradients", "values_float32", "values_fixed16",
-         "values_float16", "values_uint8", "values_uint16", "plateau", "nan"]
+         "values_float16", "values_uint8", "values_uint16", "plateau", "nan", "normals_uint8", "normals_uint16",
+         "normals_nan"]
 OUTSIDE = Camera.from_spherical(np.zeros(3), 0.7, 0.4, 0.0, 3.0)
 INSIDE = Camera(target=np.array([-0.6, 0.2, 0.1]), azimuth=0.3, elevation=0.2, roll=0.0, distance=0.5)
 
@@ -380,22 +391,25 @@ def test_native_single_scattering_matches_the_shader(kind):
 
 
 def test_frames_the_native_march_does_not_cover_stay_on_the_shader():
-    # Integer values lit from normals stored apart (precision "float32":
-    # an 8-bit texture and one of float32 normals) take the shader's two
-    # fetches; lit by their gradients instead, or unlit, they are native.
+    # A volume in bricks takes several textures (the native march reads
+    # one); the same volume in one texture, lit from normals stored apart,
+    # is native.
     d = sphere_pair()
-    r = VolumeRenderer(72, 64, light=Light.directional([-0.6, -0.3, -0.8], ambient=0.25, diffuse=0.75))
-    r.load_volume(Volume(np.round(d * 255).astype(np.uint8), compute_normal_volume(d), *BOX), precision="float32")
-    r.set_transfer_functions(ColorTransferFunction.from_colormap("viridis"), OpacityTransferFunction.linear(0.0, 0.4))
-    r.native_march = True
-    r.render()
-    assert r.last_frame_stats["engine"] == "gpu"
-    r.set_light(Light.ambient_only(0.9))
-    r.render()
-    assert r.last_frame_stats["engine"] == "native"
+    vol = Volume(np.round(d * 255).astype(np.uint8), compute_normal_volume(d), *BOX)
+    lit = Light.directional([-0.6, -0.3, -0.8], ambient=0.25, diffuse=0.75)
+    frames = {}
+    for bricks in ((9, 11, 7), None):
+        r = VolumeRenderer(72, 64, light=lit, brick_shape=bricks)
+        r.load_volume(vol, precision="float32")
+        r.set_transfer_functions(ColorTransferFunction.from_colormap("viridis"),
+                                 OpacityTransferFunction.linear(0.0, 0.4))
+        r.native_march = True
+        frames[bricks is None] = r.render(dtype=np.float32, premultiplied=True), r.last_frame_stats["engine"]
+    assert frames[False][1] == "gpu" and frames[True][1] == "native"
+    assert np.abs(frames[False][0] - frames[True][0]).max() < 0.25 * LEVEL
 
 
-@pytest.mark.parametrize("kind", ["normals_fixed16", "normals_float32", "gradients"])
+@pytest.mark.parametrize("kind", ["normals_fixed16", "normals_float32", "normals_uint8", "gradients"])
 @pytest.mark.parametrize("model", ["emission_absorption", "isosurface", "single_scattering", "unbiased"])
 def test_native_point_light_matches_the_shader(kind, model):
     # A point light inside the box (every direction lights some sample;

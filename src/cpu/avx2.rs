@@ -323,6 +323,48 @@ impl Texels for R16Unorm<'_> {
     }
 }
 
+/// Values from a values-only storage `T` and normals stored apart, one
+/// Rgba8Snorm texel a value (`super::CpuVolume::normals`): a ray's pair of
+/// corners along the last axis in one 64-bit load.
+pub struct Apart<'a, T>(pub T, pub &'a [[i8; 4]]);
+
+impl<T: Texels> Texels for Apart<'_, T> {
+    const PER_TEXEL: usize = T::PER_TEXEL;
+    const VALUE_UNIT: f32 = T::VALUE_UNIT;
+    const UNIT_BYTES: usize = T::UNIT_BYTES;
+    fn strides(&self, dims: [usize; 3]) -> [i32; 3] {
+        self.0.strides(dims)
+    }
+    fn base(&self) -> *const u8 {
+        self.0.base()
+    }
+    #[inline]
+    #[target_feature(enable = "avx2,fma,f16c")]
+    unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4] {
+        const { assert!(T::PER_TEXEL == 1, "an offset is a texel's index") };
+        // SAFETY: the caller's contract (offsets address texels, and every
+        // texel has its normal).
+        let value = unsafe { self.0.trilinear(offs, w)[0] };
+        let base = self.1.as_ptr() as *const u8;
+        // SAFETY: as above; a pair's 8 bytes hold the texel's normal and the
+        // next one's, which exists unless clamped onto the texel.
+        let codes = unsafe {
+            corner_pairs(offs, w, |at, apart| {
+                let p = base.add(4 * at);
+                let bytes = if apart {
+                    _mm_loadl_epi64(p as *const __m128i)
+                } else {
+                    _mm_set1_epi32(std::ptr::read_unaligned(p as *const i32))
+                };
+                _mm256_cvtepi32_ps(_mm256_cvtepi8_epi32(bytes))
+            })
+        };
+        // Codes of 1/127 (snorm's -128, which no normal is stored as, aside).
+        let unit = _mm256_set1_ps(1.0 / 127.0);
+        [value, _mm256_mul_ps(codes[0], unit), _mm256_mul_ps(codes[1], unit), _mm256_mul_ps(codes[2], unit)]
+    }
+}
+
 /// The binary16 floats in the low halves of `x`'s 32-bit lanes, exactly
 /// (subnormal, infinite and NaN ones too), in integer arithmetic but for
 /// the subnormals' one conversion and product: a normal half's bits moved
@@ -1382,6 +1424,64 @@ mod tests {
         // 2 MiB of texels stay in the caches; 16 MiB do not.
         assert!(!prefetch_for(4.0, 0xff, 8, [64, 64, 64]));
         assert!(prefetch_for(4.0, 0xff, 8, [128, 128, 128]));
+    }
+
+    /// Codes and normals apart read as the float32 (code, normal / 127)
+    /// texels they stand for, at points all over a small volume: inside,
+    /// on its last planes (clamped corners) and past them.
+    #[test]
+    fn values_and_normals_apart_read_as_packed_texels() {
+        if !super::super::available() {
+            return;
+        }
+        let dims = [5, 6, 7];
+        let n: usize = dims.iter().product();
+        let code = |i: usize| crate::model::hash32(i as u32) as u8;
+        let normal = |i: usize| {
+            let h = crate::model::hash32(i as u32 + 1000).to_le_bytes();
+            [h[0] as i8, h[1] as i8, (h[2] as i8).max(-127), 0]
+        };
+        let mut codes: Vec<u8> = (0..n).map(code).collect();
+        codes.extend([0; 3]);
+        let normals: Vec<[i8; 4]> = (0..n).map(normal).collect();
+        let packed: Vec<[f32; 4]> = (0..n)
+            .map(|i| {
+                let m = normal(i);
+                [code(i) as f32, m[0] as f32 / 127.0, m[1] as f32 / 127.0, m[2] as f32 / 127.0]
+            })
+            .collect();
+        let apart = Apart(R8Unorm(&codes), &normals);
+        let whole = Rgba32Float(&packed);
+        let hi: [__m256i; 3] = dims.map(|d| unsafe { _mm256_set1_epi32(d as i32 - 1) });
+        let mut k = 0u32;
+        for _ in 0..200 {
+            let mut u = [[0f32; 8]; 3];
+            for (a, axis) in u.iter_mut().enumerate() {
+                for x in axis.iter_mut() {
+                    k += 1;
+                    *x = (crate::model::hash32(k) >> 8) as f32 / 16_777_216.0 * (dims[a] as f32 + 0.5) - 0.25;
+                }
+            }
+            // SAFETY: AVX2, FMA and F16C are available; the corners are clamped into the volume.
+            let (got, want) = unsafe {
+                let u = u.map(|x| _mm256_loadu_ps(x.as_ptr()));
+                let read = |stride: [i32; 3], t: &dyn Fn(&[[__m256i; 2]; 3], &[__m256; 3]) -> [__m256; 4]| {
+                    let (offs, w) = corners(&u, &hi, &stride.map(|s| _mm256_set1_epi32(s)));
+                    t(&offs, &w).map(|x| lanes(x))
+                };
+                (
+                    read(apart.strides(dims), &|o, w| apart.trilinear(o, w)),
+                    read(whole.strides(dims), &|o, w| whole.trilinear(o, w)),
+                )
+            };
+            for c in 0..4 {
+                for l in 0..8 {
+                    // (Codes up to 255: a few of f32's ulps.)
+                    let (got, want) = (got[c][l], want[c][l]);
+                    assert!((got - want).abs() <= 1e-5 * want.abs().max(1.0), "channel {c}, lane {l}: {got} against {want}");
+                }
+            }
+        }
     }
 
     #[test]

@@ -12,8 +12,8 @@
 //! emission (either marching order: back-to-front frames are marched front
 //! to back, the same sum), either opacity correction, no
 //! light or a directional or point one lighting from normals (or
-//! gradients) held in the texels or from central differences of the
-//! values, with or without jitter, skipping and uniform runs, the
+//! gradients) held in the texels or stored apart from them, or from
+//! central differences of the values, with or without jitter, skipping and uniform runs, the
 //! maximum, minimum and average intensity projections (`projection`), the
 //! isosurface (`isosurface`) and unbiased frames (`tracking`), from a
 //! volume held in one texture
@@ -76,40 +76,53 @@ impl Texels {
     }
 }
 
-/// `$call` with `$t` bound to the march's reader of `$texels`.
+/// `$call` with `$t` bound to the march's reader of `$volume`'s texels, and
+/// of its normals stored apart where `$lit` (the frame reads them).
 #[cfg(target_arch = "x86_64")]
 macro_rules! with_reader {
-    ($texels:expr, $t:ident => $call:expr) => {
-        match $texels {
-            Texels::Rgba32Float(x) => {
+    ($volume:expr, $lit:expr, $t:ident => $call:expr) => {
+        match (&$volume.texels, $volume.normals.as_deref().filter(|_| $lit)) {
+            (Texels::R8Unorm(x), Some(n)) => {
+                let $t = &avx2::Apart(avx2::R8Unorm(x), n);
+                $call
+            }
+            (Texels::R16Unorm(x), Some(n)) => {
+                let $t = &avx2::Apart(avx2::R16Unorm(x), n);
+                $call
+            }
+            (Texels::R32Float(x), Some(n)) => {
+                let $t = &avx2::Apart(avx2::R32Float(x), n);
+                $call
+            }
+            (Texels::Rgba32Float(x), _) => {
                 let $t = &avx2::Rgba32Float(x);
                 $call
             }
-            Texels::Rgba16Snorm(x) => {
+            (Texels::Rgba16Snorm(x), _) => {
                 let $t = &avx2::Rgba16Snorm(x);
                 $call
             }
-            Texels::R32Float(x) => {
+            (Texels::R32Float(x), _) => {
                 let $t = &avx2::R32Float(x);
                 $call
             }
-            Texels::R16Snorm(x) => {
+            (Texels::R16Snorm(x), _) => {
                 let $t = &avx2::R16Snorm(x);
                 $call
             }
-            Texels::R8Unorm(x) => {
+            (Texels::R8Unorm(x), _) => {
                 let $t = &avx2::R8Unorm(x);
                 $call
             }
-            Texels::R16Unorm(x) => {
+            (Texels::R16Unorm(x), _) => {
                 let $t = &avx2::R16Unorm(x);
                 $call
             }
-            Texels::R16Float(x) => {
+            (Texels::R16Float(x), _) => {
                 let $t = &avx2::R16Float(x);
                 $call
             }
-            Texels::Rgba16Float(x) => {
+            (Texels::Rgba16Float(x), _) => {
                 let $t = &avx2::Rgba16Float(x);
                 $call
             }
@@ -121,12 +134,18 @@ pub struct CpuVolume {
     pub texels: Texels,
     /// The texture's size (the volume's, or larger by a border).
     pub dims: [usize; 3],
+    /// Normals stored apart from values-only texels (8-, 16-bit codes or
+    /// float32), one a texel, as the GPU path's Rgba8Snorm texture holds
+    /// them: (x, y, z) codes of 1/127, and a fourth byte unused.
+    pub normals: Option<Vec<[i8; 4]>>,
 }
 
 impl CpuVolume {
-    /// Whether each texel holds a normal (or gradient) beside its value.
+    /// Whether each texel has a normal (or gradient), in it or apart.
     pub fn has_normals(&self) -> bool {
+        let apart = matches!(self.texels, Texels::R8Unorm(_) | Texels::R16Unorm(_) | Texels::R32Float(_));
         matches!(self.texels, Texels::Rgba32Float(_) | Texels::Rgba16Snorm(_) | Texels::Rgba16Float(_))
+            || (apart && self.normals.as_ref().is_some_and(|n| n.len() >= self.dims.iter().product()))
     }
 }
 
@@ -317,7 +336,9 @@ pub fn render(
         assert_eq!(frame.model, Model::EmissionAbsorption, "pre-integration tables are emission-absorption's");
         assert!(frame.refine <= 16, "refine");
     }
-    assert!(frame.volume.texels.padded(frame.volume.dims.iter().product()), "texels and their padding");
+    let texels = frame.volume.dims.iter().product();
+    assert!(frame.volume.texels.padded(texels), "texels and their padding");
+    assert!(frame.volume.normals.as_ref().is_none_or(|n| n.len() >= texels), "a normal a texel");
     let tiles_x = w.div_ceil(TILE);
     let tiles = tiles_x * h.div_ceil(TILE);
     let next = AtomicUsize::new(0);
@@ -428,15 +449,15 @@ fn march_row(
         // SAFETY: `render` checked AVX2, FMA, F16C and the paddings.
         unsafe {
             if frame.model == Model::Isosurface {
-                return with_reader!(&frame.volume.texels, t => isosurface::iso(frame, t, col0, row, out, depth, halt));
+                return with_reader!(frame.volume, frame.lit, t => isosurface::iso(frame, t, col0, row, out, depth, halt));
             }
             if frame.model.projects() {
-                return with_reader!(&frame.volume.texels, t => projection::project(frame, t, col0, row, out, halt));
+                return with_reader!(frame.volume, false, t => projection::project(frame, t, col0, row, out, halt));
             }
             if frame.unbiased {
-                return with_reader!(&frame.volume.texels, t => tracking::track(frame, t, col0, row, out, halt));
+                return with_reader!(frame.volume, frame.lit, t => tracking::track(frame, t, col0, row, out, halt));
             }
-            with_reader!(&frame.volume.texels, t => avx2::march(frame, t, col0, row, out, halt))
+            with_reader!(frame.volume, frame.lit, t => avx2::march(frame, t, col0, row, out, halt))
         }
     }
     #[cfg(not(target_arch = "x86_64"))]

@@ -198,7 +198,7 @@ mod tests {
         if !crate::cpu::available() {
             return;
         }
-        let volume = CpuVolume { texels: Texels::R32Float(vec![0.0; 8]), dims: [11, 6, 8] };
+        let volume = CpuVolume { texels: Texels::R32Float(vec![0.0; 8]), dims: [11, 6, 8], normals: None };
         let mut k = 0u32;
         let (mut compared, mut missed, mut truncated, mut windowed) = (0, 0, 0, 0);
         for case in 0..60 {

@@ -90,7 +90,8 @@ impl GpuRenderer {
             || variant.model == Model::SingleScattering
             || match variant.shading {
                 Shading::AmbientOnly => true,
-                Shading::Normals => variant.layout.normals_in_volume && cpu.has_normals(),
+                // In the texels or apart.
+                Shading::Normals => cpu.has_normals(),
                 // From central differences of the values.
                 Shading::Gradient => composites || iso,
             };
