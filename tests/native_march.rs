@@ -63,9 +63,15 @@ fn the_native_march_renders_the_shaders_frame() {
         // engines' logarithms may round apart).
         RenderConfig { unbiased: true, early_ray_termination: false, ..plain.clone() },
     ];
+    // The values as 8-bit codes at precision float32: their normals stored apart.
+    let codes: Vec<u8> = values.iter().map(|v| (v * 255.0).round() as u8).collect();
+    let coded = VolumeView::new([n; 3], Voxels::U8(&codes), Some(&normals), bounds).unwrap();
     let mut native_frames = 0;
-    for precision in [Precision::Float32, Precision::Fixed16, Precision::Float16] {
-        r.set_volume_with_precision(&vol, precision).unwrap();
+    let storages =
+        [(&vol, Precision::Float32), (&vol, Precision::Fixed16), (&vol, Precision::Float16), (&coded, Precision::Float32)];
+    for (vol, precision) in storages {
+        r.set_volume_with_precision(vol, precision).unwrap();
+        let precision = format!("{precision:?}{}", if std::ptr::eq(vol, &coded) { ", 8-bit codes" } else { "" });
         for cfg in &configs {
             r.set_lut(if cfg.model == Model::EmissionAbsorption { &lut } else { &opaque }).unwrap();
             r.native_march = false;
@@ -80,11 +86,11 @@ fn the_native_march_renders_the_shaders_frame() {
             native_frames += 1;
             assert!(shader.iter().cloned().fold(0.0, f32::max) > 0.05, "the scene must show something");
             let diff = native.iter().zip(&shader).map(|(a, b)| (a - b).abs()).fold(0.0, f32::max) * 255.0;
-            assert!(diff < 0.25, "{precision:?}, {cfg:?}: {diff} levels");
+            assert!(diff < 0.25, "{precision}, {cfg:?}: {diff} levels");
             assert!(s.samples.abs_diff(t.samples) as f64 <= 1e-4 * s.samples as f64 + 2.0, "{} vs {}", s.samples, t.samples);
         }
     }
     if cpu_adapter && pyvr_core::cpu::available() {
-        assert_eq!(native_frames, 24);
+        assert_eq!(native_frames, 32);
     }
 }

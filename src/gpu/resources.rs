@@ -434,7 +434,11 @@ fn packed_normals(n: &[f32]) -> Result<Vec<[i8; 4]>, Error> {
     }))
 }
 
-fn upload_normals(ctx: &GpuContext, size: wgpu::Extent3d, packed: &[[i8; 4]]) -> Result<(wgpu::TextureView, u64), Error> {
+fn upload_normals(
+    ctx: &GpuContext,
+    size: wgpu::Extent3d,
+    packed: &[[i8; 4]],
+) -> Result<(wgpu::TextureView, u64), Error> {
     let data: &[u8] = bytemuck::cast_slice(packed);
     let snorm8 = wgpu::TextureFormat::Rgba8Snorm;
     let view = ctx.texture_with_data("uploading the normals", "normals", size, D3, snorm8, 1, data)?;
