@@ -208,8 +208,12 @@ impl<'a> VolumeView<'a> {
 
 /// A stored normal's direction: unit length, or zero for zero, NaN or
 /// infinite input (such voxels get no diffuse term).
+#[inline]
 pub fn unit_direction(n: [f32; 3]) -> [f32; 3] {
-    let l = (n[0] as f64).hypot(n[1] as f64).hypot(n[2] as f64);
+    // An f32's square neither overflows nor underflows an f64, so no hypot
+    // (a libm call); inlined, the packing loops overlap the voxels' square
+    // roots and divisions.
+    let l = n.iter().map(|&c| c as f64 * c as f64).sum::<f64>().sqrt();
     if !(l > 0.0 && l.is_finite()) {
         return [0.0; 3];
     }
@@ -224,6 +228,23 @@ pub fn unit_or_none(v: DVec3) -> Option<DVec3> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn normal_directions_are_unit_at_every_scale() {
+        let big = f32::MAX;
+        let tiny = f32::from_bits(1); // the smallest subnormal
+        for n in [[3.0, -4.0, 12.0], [big, big, -big], [tiny, 0.0, -tiny], [1e-30, 2e-30, 2e-30], [0.0, -5e37, 0.0]] {
+            let u = unit_direction(n);
+            let len = u.iter().map(|&c| (c as f64).powi(2)).sum::<f64>().sqrt();
+            assert!((len - 1.0).abs() < 1e-6, "{n:?}: {u:?}");
+            let same_way = (0..3).all(|k| if n[k] == 0.0 { u[k] == 0.0 } else { u[k].signum() == n[k].signum() });
+            assert!(same_way, "{n:?}: {u:?}");
+        }
+        assert_eq!(unit_direction([3.0, -4.0, 12.0]), [3.0 / 13.0, -4.0 / 13.0, 12.0 / 13.0]);
+        for n in [[0.0; 3], [f32::NAN, 1.0, 0.0], [f32::INFINITY, 0.0, 0.0]] {
+            assert_eq!(unit_direction(n), [0.0; 3], "{n:?}");
+        }
+    }
 
     #[test]
     fn trilinear_is_cell_centred_and_clamped() {
