@@ -478,6 +478,24 @@ def test_native_roulette_keeps_the_mean():
     assert abs((a - b).mean()) < 0.05 * LEVEL + 4 * np.sqrt((sa ** 2 + sb ** 2).mean() / a.size)
 
 
+@pytest.mark.parametrize("kind", ["normals_fixed16", "normals_uint8", "gradients", "values_float32"])
+def test_the_texture_waits_for_a_frame_on_the_shader(kind):
+    # On a CPU adapter the texels are kept once, for the native march; the
+    # shader's texture (and normals apart) is made from that copy when a
+    # frame first needs it, and then kept.
+    r = renderer(kind)
+    first = r.render(dtype=np.float32, premultiplied=True)
+    assert r.last_frame_stats["engine"] == "native" and not r.counters()["volume_texture"]
+    native, shader = both(r)
+    assert r.counters()["volume_texture"]
+    assert_same(native, shader, kind)
+    assert np.array_equal(first, native[0])
+    # A new volume starts without its texture again.
+    r.load_volume(scene(kind)[0], precision=scene(kind)[1])
+    r.render()
+    assert not r.counters()["volume_texture"]
+
+
 def test_native_march_off_keeps_frames_on_the_shader():
     r = renderer("normals_fixed16")
     r.render()

@@ -885,9 +885,10 @@ class VolumeRenderer:
         AMD EPYC (docs/speed.md).
         Images match the shader's within 0.25 level
         (measured: 0.0004 on most scenes); ``last_frame_stats["engine"]``
-        says which ran ("native" or "gpu"). It keeps a copy of a volume's
-        texels in memory beside the driver's (none of bricks, which stay on
-        the shader; docs/speed.md, "The native march")."""
+        says which ran ("native" or "gpu"). It keeps a volume's texels in
+        memory itself, and the shader's texture is made from them only when
+        a frame first runs on the shader (none of bricks, which stay on the
+        shader; docs/speed.md, "The native march")."""
         return self._engine.native_march
 
     @native_march.setter
@@ -919,7 +920,12 @@ class VolumeRenderer:
 
     @_serialised
     def counters(self) -> dict:
-        """Frames rendered, uploads made and bytes resident, for profiling."""
+        """Frames rendered, uploads made and bytes resident, for profiling.
+
+        ``volume_texture`` is False while the native march's copy of the
+        texels stands in for the GPU texture: where the adapter is a CPU,
+        the texture is made at the first frame on the shader, not at load.
+        """
         return self._engine.counters()
 
     # -- frames ----------------------------------------------------------

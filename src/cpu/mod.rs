@@ -60,6 +60,20 @@ pub enum Texels {
 }
 
 impl Texels {
+    /// The first `n` texels' bytes, as the GPU path's texture holds them.
+    pub fn bytes(&self, n: usize) -> &[u8] {
+        match self {
+            Texels::Rgba32Float(t) => bytemuck::cast_slice(&t[..n]),
+            Texels::Rgba16Snorm(t) => bytemuck::cast_slice(&t[..n]),
+            Texels::R32Float(t) => bytemuck::cast_slice(&t[..n]),
+            Texels::R16Snorm(t) => bytemuck::cast_slice(&t[..n]),
+            Texels::R8Unorm(t) => &t[..n],
+            Texels::R16Unorm(t) => bytemuck::cast_slice(&t[..n]),
+            Texels::R16Float(t) => bytemuck::cast_slice(&t[..n]),
+            Texels::Rgba16Float(t) => bytemuck::cast_slice(&t[..n]),
+        }
+    }
+
     /// Whether the storage holds the padding its reads need past `n` texels
     /// (a texel's read takes the next along the last axis with it).
     fn padded(&self, n: usize) -> bool {

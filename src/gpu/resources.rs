@@ -24,9 +24,13 @@ const D3: wgpu::TextureDimension = wgpu::TextureDimension::D3;
 pub struct VolumeGpu {
     /// The stored format can be filtered by the sampler.
     pub filterable: bool,
-    pub view: wgpu::TextureView,
-    /// Normals in their own texture.
+    /// The texture; None while the native march's copy (`cpu`) stands in
+    /// for it, until a frame on the shader needs it (`ensure_textures`).
+    pub view: Option<wgpu::TextureView>,
+    /// Normals in their own texture (None while deferred as `view` is).
     pub normals: Option<wgpu::TextureView>,
+    /// The normals are a texture of their own.
+    pub normals_apart: bool,
     /// Normals in the volume's texels: (value, nx, ny, nz), Rgba16Float.
     pub normals_in_volume: bool,
     /// The texels are (value, gradient) with a one-voxel border
@@ -41,29 +45,29 @@ pub struct VolumeGpu {
     /// What the shader's texel value stands for: the sampled value is
     /// `stored.apply(texel.r)` (the identity but for fixed-point storage).
     pub stored: ValueMap,
-    /// The texels again for the native march (`crate::cpu`), where the
-    /// adapter is a CPU that runs it and the format is one it reads.
+    /// The texels for the native march (`crate::cpu`), where the adapter
+    /// is a CPU that runs it and the format is one it reads.
     pub cpu: Option<CpuVolume>,
 }
 
-/// A copy of the texels for the native march: only where the caller asks
+/// The texels for the native march: only where the caller asks
 /// (`native`), the adapter is a CPU (whose "device memory" is the same RAM)
-/// and the march runs there, and only while the copy takes at most half
-/// the memory the system says is available (frames then stay on the
-/// shader): it doubles what the volume takes, and a process over its
-/// memory is killed, not told.
+/// and the march runs there, and only while they take at most half the
+/// memory the system says is available (frames then stay on the shader):
+/// with a frame on the shader they double what the volume takes, and a
+/// process over its memory is killed, not told.
 fn cpu_copy(
     ctx: &GpuContext,
     native: bool,
     format: wgpu::TextureFormat,
     dims: [usize; 3],
     bytes: &[u8],
-    normals: Option<Vec<[i8; 4]>>,
+    normals: &mut Option<Vec<[i8; 4]>>,
 ) -> Option<CpuVolume> {
     if !native || ctx.adapter_info.device_type != wgpu::DeviceType::Cpu || !crate::cpu::available() {
         return None;
     }
-    // (The normals were made for the upload: keeping them adds no peak.)
+    // (The normals were made for the texture: keeping them adds no peak.)
     let kept = bytes.len() + normals.as_ref().map_or(0, |n| 4 * n.len());
     if available_memory().is_some_and(|free| kept as u64 > free / 2) {
         return None;
@@ -98,7 +102,7 @@ fn cpu_copy(
         wgpu::TextureFormat::Rgba16Float => Texels::Rgba16Float(copied(bytes, 0)?),
         _ => return None,
     };
-    Some(CpuVolume { texels, dims, normals })
+    Some(CpuVolume { texels, dims, normals: normals.take() })
 }
 
 /// Subnormal floats to zero (keeping the sign): fields that fall off
@@ -132,9 +136,10 @@ fn available_memory() -> Option<u64> {
 }
 
 impl VolumeGpu {
-    /// Uploads `vol`, storing float data at `precision`. `native`: keep a
-    /// copy of the texels for the native march where it runs (`cpu_copy`);
-    /// a brick's would never be read (the march takes one texture).
+    /// Uploads `vol`, storing float data at `precision`. `native`: keep the
+    /// texels for the native march where it runs (`cpu_copy`), and make
+    /// the texture from them when a frame on the shader needs it; a
+    /// brick's would never be read (the march takes one texture).
     pub fn upload(ctx: &GpuContext, vol: &VolumeView, precision: Precision, native: bool) -> Result<VolumeGpu, Error> {
         let max3d = ctx.limits.max_texture_dimension_3d as usize;
         if let Some(&big) = vol.dims.iter().find(|&&d| d > max3d) {
@@ -209,8 +214,19 @@ impl VolumeGpu {
         // include it, as in the f64 integrator; hardware filtering of NaN is
         // undefined, so such volumes are interpolated in the shader.
         let has_nan = matches!(vol.voxels, Voxels::F32(v) if v.iter().any(|x| x.is_nan()));
-        let size = extent_of(vol.dims);
-        let view = ctx.texture_with_data("uploading the volume", "volume", size, D3, format, 1, bytes)?;
+        let mut packed = vol.normals.map(packed_normals).transpose()?;
+        let normal_bytes = packed.as_ref().map_or(0, |n| 4 * n.len() as u64);
+        let cpu = cpu_copy(ctx, native, format, vol.dims, bytes, &mut packed);
+        // Where the native march keeps the texels, the textures wait for a
+        // frame on the shader: on a CPU adapter they would double the memory.
+        let (view, normals) = match cpu {
+            Some(_) => (None, None),
+            None => {
+                let size = extent_of(vol.dims);
+                let view = ctx.texture_with_data("uploading the volume", "volume", size, D3, format, 1, bytes)?;
+                (Some(view), packed.as_deref().map(|n| upload_normals(ctx, size, n)).transpose()?.map(|(v, _)| v))
+            }
+        };
         // R8Unorm is filtered in the shader: lavapipe's 8-bit filtering path
         // returns results quantised to 1/255, which loses faint structure
         // (measured: alpha 0.006 instead of 0.029 at a sphere's rim).
@@ -219,13 +235,11 @@ impl VolumeGpu {
             wgpu::TextureFormat::R32Float => ctx.features.contains(wgpu::Features::FLOAT32_FILTERABLE) && !has_nan,
             _ => true,
         };
-        let packed = vol.normals.map(packed_normals).transpose()?;
-        let normals = packed.as_deref().map(|n| upload_normals(ctx, size, n)).transpose()?;
-        let normal_bytes = normals.as_ref().map_or(0, |(_, b)| *b);
         Ok(VolumeGpu {
             filterable,
             view,
-            normals: normals.map(|(v, _)| v),
+            normals,
+            normals_apart: vol.normals.is_some(),
             normals_in_volume: false,
             gradients: false,
             format,
@@ -234,7 +248,7 @@ impl VolumeGpu {
             bytes: bytes.len() as u64 + normal_bytes,
             grid: MinMaxGrid::build(vol),
             stored: ValueMap::IDENTITY,
-            cpu: cpu_copy(ctx, native, format, vol.dims, bytes, packed),
+            cpu,
         })
     }
 
@@ -298,11 +312,16 @@ impl VolumeGpu {
         grid: MinMaxGrid,
         native: bool,
     ) -> Result<VolumeGpu, Error> {
-        let view = ctx.texture_with_data("uploading the volume", "volume", extent_of(texels), D3, format, 1, bytes)?;
+        let cpu = cpu_copy(ctx, native, format, texels, bytes, &mut None);
+        let view = match cpu {
+            Some(_) => None,
+            None => Some(ctx.texture_with_data("uploading the volume", "volume", extent_of(texels), D3, format, 1, bytes)?),
+        };
         Ok(VolumeGpu {
             filterable: true,
             view,
             normals: None,
+            normals_apart: false,
             normals_in_volume: vol.normals.is_some(),
             gradients: false,
             format,
@@ -311,7 +330,7 @@ impl VolumeGpu {
             bytes: bytes.len() as u64,
             grid,
             stored: ValueMap::IDENTITY,
-            cpu: cpu_copy(ctx, native, format, texels, bytes, None),
+            cpu,
         })
     }
 
@@ -385,6 +404,25 @@ impl VolumeGpu {
         Ok(Some(gpu))
     }
 
+    /// Makes the textures a frame on the shader reads where the native
+    /// march's copy stood in for them (`upload`): from that copy, whose
+    /// float32 subnormals are flushed to zero, as GPUs that flush them read.
+    pub fn ensure_textures(&mut self, ctx: &GpuContext) -> Result<(), Error> {
+        if self.view.is_some() {
+            return Ok(());
+        }
+        let cpu = self.cpu.as_ref().expect("a volume without its texture keeps the native march's copy");
+        let (size, n) = (extent_of(cpu.dims), cpu.dims.iter().product());
+        let bytes = cpu.texels.bytes(n);
+        let view = ctx.texture_with_data("uploading the volume", "volume", size, D3, self.format, 1, bytes)?;
+        if self.normals_apart {
+            let packed = cpu.normals.as_deref().expect("kept with the texels");
+            self.normals = Some(upload_normals(ctx, size, &packed[..n])?.0);
+        }
+        self.view = Some(view);
+        Ok(())
+    }
+
     /// The stored format and where the normals are, for reports.
     pub fn storage(&self) -> String {
         let texel = format!("{:?}", self.format).to_lowercase();
@@ -395,7 +433,7 @@ impl VolumeGpu {
             let kind = if self.normals_in_volume { "16-bit fixed point (value, normal)" } else { "16-bit fixed point" };
             return format!("{texel} ({kind})");
         }
-        match (self.normals.is_some(), self.normals_in_volume) {
+        match (self.normals_apart, self.normals_in_volume) {
             (true, _) => format!("{texel} + rgba8snorm normals"),
             (false, true) => format!("{texel} (value, normal)"),
             (false, false) => texel,

@@ -359,6 +359,7 @@ impl PyRenderer {
         d.set_item("uploaded_bytes", c.uploaded_bytes)?;
         d.set_item("volume_bytes", self.inner.volume_bytes())?;
         d.set_item("volume_storage", self.inner.volume_storage())?;
+        d.set_item("volume_texture", self.inner.volume_texture())?;
         d.set_item("pipeline_variants", self.inner.cached_variants())?;
         Ok(d)
     }

@@ -268,7 +268,7 @@ impl GpuRenderer {
     /// state and pre-integration table they use.
     pub(super) fn prepare(&mut self, camera: &Camera, light: &Light, cfg: &RenderConfig) -> Result<(Variant, PassPlan), Error> {
         let vol = self.volume.as_ref().expect("checked by check_ready");
-        let shading = Shading::choose(light, vol.normals.is_some() || vol.normals_in_volume);
+        let shading = Shading::choose(light, vol.normals_apart || vol.normals_in_volume);
         let hw_filter = vol.filterable && !(self.shader_filtering || cfg.exact_filtering);
         let layout = Layout { hw_filter, normals_in_volume: vol.normals_in_volume };
         let skip = self.skip_empty && self.occupancy.empty_fraction >= SKIP_MIN_EMPTY;
@@ -314,6 +314,7 @@ impl GpuRenderer {
             return Ok(());
         }
         self.pending_upload += self.tables.upload_preint(&self.ctx)?;
+        self.volume.as_mut().expect("checked by check_ready").ensure_textures(&self.ctx)?;
         let preint = self.tables.preint.as_ref().and_then(|(v, _)| v.as_ref()).unwrap_or(&self.fixed.no_preint);
         let vol = self.volume.as_ref().expect("checked by check_ready");
         let (lut, _) = self.tables.lut.as_ref().expect("checked by check_ready");
@@ -328,7 +329,7 @@ impl GpuRenderer {
         let f = &self.frame;
         let entries = [
             (bindings::PARAMS, f.uniform.as_entire_binding()),
-            (bindings::VOLUME, view(&vol.view)),
+            (bindings::VOLUME, view(vol.view.as_ref().expect("made above"))),
             (bindings::NORMALS, view(normals)),
             (bindings::LUT, view(lut)),
             (bindings::IMAGE, f.output.storage.as_entire_binding()),

@@ -264,6 +264,12 @@ impl GpuRenderer {
         self.volume.as_ref().map_or(0, |v| v.bytes) + self.resident_brick_bytes()
     }
 
+    /// Whether the current volume's texture is made: not while the native
+    /// march's copy stands in for it (no frame on the shader yet).
+    pub fn volume_texture(&self) -> bool {
+        self.volume.as_ref().is_some_and(|v| v.view.is_some())
+    }
+
     /// How the current volume is stored: its texel format, and where the
     /// normals are ("" without a volume).
     pub fn volume_storage(&self) -> String {
@@ -344,7 +350,7 @@ impl GpuRenderer {
         self.check_process()?;
         let values_alone = [wgpu::TextureFormat::R32Float, wgpu::TextureFormat::R8Unorm, wgpu::TextureFormat::R16Unorm];
         let plain = matches!(&self.volume, Some(v) if values_alone.contains(&v.format)
-            && v.normals.is_none() && !v.normals_in_volume && v.dims == vol.dims && v.bounds == vol.bounds);
+            && !v.normals_apart && !v.normals_in_volume && v.dims == vol.dims && v.bounds == vol.bounds);
         if !plain || self.bricks.is_some() || vol.normals.is_some() {
             return Ok(false);
         }
