@@ -13,8 +13,9 @@
 //! to back, the same sum), either opacity correction, no
 //! light or a directional or point one lighting from normals (or
 //! gradients) held in the texels or stored apart from them, or from
-//! central differences of the values, with or without jitter, skipping and uniform runs, the
-//! maximum, minimum and average intensity projections (`projection`), the
+//! central differences of the values, with or without jitter, skipping
+//! and uniform runs, the maximum, minimum and average intensity
+//! projections (`projection`), the
 //! isosurface (`isosurface`) and unbiased frames (`tracking`), from a
 //! volume held in one texture
 //! (float32, float16 or 16-bit fixed-point texels, or 8- and 16-bit codes).
