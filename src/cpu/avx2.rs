@@ -2,7 +2,7 @@
 //! segment index, leaping or compositing as the shader's invocation would,
 //! until every lane's ray is done.
 
-use super::{Frame, Model, Stats, CELL, CHAIN, TILE};
+use super::{Frame, Model, Stats, CHAIN, TILE};
 use crate::gpu::params::Params;
 use std::arch::x86_64::*;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -724,12 +724,6 @@ pub unsafe fn march<T: Texels>(
     let dims = f.volume.dims;
     let rays = super::rays8::rays(f, col0, row);
     let (start, per) = voxel_axes(p, &rays, dims);
-    let moving: [__m256; 3] = std::array::from_fn(|k| _mm256_cmp_ps::<_CMP_NEQ_OQ>(per[k], _mm256_setzero_ps()));
-    let ahead: [__m256; 3] = std::array::from_fn(|k| _mm256_cmp_ps::<_CMP_GT_OQ>(per[k], _mm256_setzero_ps()));
-    // Ray parameter per voxel along each axis (1 where the ray does not move along it).
-    let per_voxel: [__m256; 3] = std::array::from_fn(|k| {
-        _mm256_div_ps(_mm256_set1_ps(1.0), _mm256_blendv_ps(_mm256_set1_ps(1.0), per[k], moving[k]))
-    });
     // A quarter voxel along the axis the ray crosses fastest (compositing.wgsl `whole_segments`).
     let nudge = _mm256_div_ps(
         _mm256_set1_ps(0.25),
@@ -758,14 +752,11 @@ pub unsafe fn march<T: Texels>(
     let (ambient, diffuse) = (_mm256_set1_ps(p.ambient), _mm256_set1_ps(p.diffuse));
     let scatters = f.model == Model::SingleScattering && f.scatter;
     let threshold = _mm256_set1_ps(p.threshold);
-    let cell = _mm256_set1_ps(1.0 / CELL);
-    let border = _mm256_set1_ps(0.5 - p.border as f32);
     let (radius_grid, grid) = match f.cells {
-        Some((g, d)) if f.skip_empty || f.uniform_runs => (g.as_ptr() as *const i32, d),
+        Some((g, d)) if f.skip_empty || f.uniform_runs => (g.as_ptr(), d),
         _ => (std::ptr::null(), [1, 1, 1]),
     };
-    let grid_hi: [__m256i; 3] = grid.map(|d| _mm256_set1_epi32(d as i32 - 1));
-    let grid_stride = numpy_strides(grid, 1).map(|s| _mm256_set1_epi32(s));
+    let cells = super::cells::Cells::new(p, start, per, grid, false);
 
     let as_ps = _mm256_castsi256_ps;
     let mut active = as_ps(_mm256_cmpgt_epi32(limit, i));
@@ -960,36 +951,16 @@ pub unsafe fn march<T: Texels>(
         let mut next = i;
         if !radius_grid.is_null() {
             let flag = _mm256_set1_epi32(crate::occupancy::UNIFORM_FLAG as i32);
-            // The code of the cell holding ray parameter `at`, and the ray's
-            // exit (from there) from the cube of radius `cube` around it.
-            let cell_code = |at: __m256| -> ([__m256; 3], [__m256i; 3], __m256i) {
-                let um = coords(at);
-                let uc: [__m256; 3] = std::array::from_fn(|k| _mm256_add_ps(um[k], border));
-                let c: [__m256i; 3] = std::array::from_fn(|k| {
-                    let ci = _mm256_cvttps_epi32(_mm256_floor_ps(_mm256_mul_ps(uc[k], cell)));
-                    _mm256_min_epi32(_mm256_max_epi32(ci, zi), grid_hi[k])
-                });
-                let at = _mm256_add_epi32(
-                    _mm256_add_epi32(_mm256_mullo_epi32(c[0], grid_stride[0]), _mm256_mullo_epi32(c[1], grid_stride[1])),
-                    c[2],
-                );
-                // SAFETY: c is clamped into the grid, whose codes `radius_grid` holds.
-                let code = unsafe { _mm256_i32gather_epi32::<1>(radius_grid, at) };
-                (uc, c, _mm256_and_si256(code, _mm256_set1_epi32(0xff)))
-            };
-            let exit_of = |uc: &[__m256; 3], c: &[__m256i; 3], cube: __m256i| -> __m256 {
-                let mut exit = _mm256_set1_ps(3.0e38);
-                for k in 0..3 {
-                    let lo = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_sub_epi32(c[k], _mm256_sub_epi32(cube, onei))), _mm256_set1_ps(CELL));
-                    let up = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_add_epi32(c[k], cube)), _mm256_set1_ps(CELL));
-                    let side = _mm256_blendv_ps(lo, up, ahead[k]);
-                    let tk = _mm256_mul_ps(_mm256_sub_ps(side, uc[k]), per_voxel[k]);
-                    exit = _mm256_min_ps(exit, _mm256_blendv_ps(_mm256_set1_ps(3.0e38), tk, moving[k]));
-                }
-                _mm256_max_ps(exit, zero)
+            // The cell holding ray parameter `at`, and its code.
+            let cell_code = |at: __m256| {
+                let cell = cells.at(at);
+                // SAFETY: the cell is clamped into the grid, whose codes
+                // `radius_grid` holds, followed by three bytes.
+                let code = unsafe { super::cells::byte(radius_grid, cell.index) };
+                (cell, code)
             };
             let lowest = _mm256_cvtepi32_ps(_mm256_add_epi32(i, onei));
-            let (uc, c, code) = cell_code(if f.preint.is_some() { start_at } else { mid });
+            let (cell, code) = cell_code(if f.preint.is_some() { start_at } else { mid });
             // Codes from UNIFORM_FLAG up mark uniform cells, which are not empty.
             let flagged = _mm256_cmpgt_epi32(code, _mm256_sub_epi32(flag, onei));
             let radius = _mm256_andnot_si256(flagged, code);
@@ -1003,7 +974,7 @@ pub unsafe fn march<T: Texels>(
                 uniform = _mm256_and_ps(active, as_ps(_mm256_cmpgt_epi32(uniform_radius, zi)));
                 cube = _mm256_or_si256(cube, uniform_radius);
             }
-            let exit = exit_of(&uc, &c, cube);
+            let exit = cells.exit(&cell, cube);
             let kf = if f.preint.is_some() {
                 // compositing.wgsl `whole_segments`: on through the empty
                 // cubes after the first, each looked up a quarter voxel past
@@ -1014,11 +985,11 @@ pub unsafe fn march<T: Texels>(
                     if _mm256_movemask_ps(walking) == 0 {
                         break;
                     }
-                    let (uc, c, code) = cell_code(_mm256_add_ps(far, nudge));
+                    let (cell, code) = cell_code(_mm256_add_ps(far, nudge));
                     let flagged = _mm256_cmpgt_epi32(code, _mm256_sub_epi32(flag, onei));
                     let radius = _mm256_andnot_si256(flagged, code);
                     walking = _mm256_and_ps(walking, as_ps(_mm256_cmpgt_epi32(radius, zi)));
-                    let exit = exit_of(&uc, &c, radius);
+                    let exit = cells.exit(&cell, radius);
                     far = _mm256_blendv_ps(far, _mm256_add_ps(_mm256_add_ps(far, nudge), exit), walking);
                 }
                 let kf = _mm256_floor_ps(_mm256_sub_ps(

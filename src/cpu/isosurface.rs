@@ -8,7 +8,7 @@
 //! or a point light).
 
 use super::avx2::{corners, gradient_at, int_lanes, lanes, lit_by, point_light_travel, voxel_axes, Spans, Texels};
-use super::{Frame, Stats, CELL, TILE};
+use super::{Frame, Stats, TILE};
 use crate::gpu::shader::ISO_BISECTIONS;
 use std::arch::x86_64::*;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -62,9 +62,10 @@ pub unsafe fn iso<T: Texels>(
     };
     // Cells leapt: the empty radius codes of the cells that cannot reach the iso value.
     let (radius_grid, grid) = match f.cells {
-        Some((g, d)) if f.skip_empty => (g.as_ptr() as *const i32, d),
+        Some((g, d)) if f.skip_empty => (g.as_ptr(), d),
         _ => (std::ptr::null(), [1, 1, 1]),
     };
+    let cells = super::cells::Cells::new(p, start, per, grid, false);
     let n = rays.n;
     // Rays whose every step was taken test their exit too.
     let whole = as_ps(_mm256_cmpeq_epi32(n, _mm256_cvttps_epi32(_mm256_min_ps(rays.needed, set(2.0e9)))));
@@ -136,35 +137,14 @@ pub unsafe fn iso<T: Texels>(
             // midpoint inside as the bracket's (unread) lower end.
             let may = _mm256_and_ps(below, as_ps(_mm256_cmpgt_epi32(_mm256_add_epi32(n, onei), i)));
             if _mm256_movemask_ps(may) != 0 {
-                let border = set(0.5 - p.border as f32);
-                let uc: [__m256; 3] = std::array::from_fn(|k| _mm256_add_ps(_mm256_fmadd_ps(per[k], at, start[k]), border));
-                let c: [__m256i; 3] = std::array::from_fn(|k| {
-                    let ci = _mm256_cvttps_epi32(_mm256_floor_ps(_mm256_mul_ps(uc[k], set(1.0 / CELL))));
-                    _mm256_min_epi32(_mm256_max_epi32(ci, zi), _mm256_set1_epi32(grid[k] as i32 - 1))
-                });
-                let strides = [(grid[1] * grid[2]) as i32, grid[2] as i32, 1];
-                let cell =
-                    (0..3).fold(zi, |a, k| _mm256_add_epi32(a, _mm256_mullo_epi32(c[k], _mm256_set1_epi32(strides[k]))));
-                // SAFETY: c is clamped into the grid, whose codes are followed by three bytes.
-                let code = unsafe { _mm256_i32gather_epi32::<1>(radius_grid, cell) };
-                let radius = _mm256_and_si256(code, _mm256_set1_epi32(0xff));
+                let cell = cells.at(at);
+                // SAFETY: the cell is clamped into the grid, whose codes are followed by three bytes.
+                let radius = unsafe { super::cells::byte(radius_grid, cell.index) };
                 let flagged = _mm256_cmpgt_epi32(radius, _mm256_set1_epi32(crate::occupancy::UNIFORM_FLAG as i32 - 1));
                 let radius = _mm256_andnot_si256(flagged, radius);
                 let empty = _mm256_and_ps(may, as_ps(_mm256_cmpgt_epi32(radius, zi)));
                 if _mm256_movemask_ps(empty) != 0 {
-                    // skipping.wgsl `exit_of_cube`.
-                    let mut exit = set(3.0e38);
-                    for k in 0..3 {
-                        let moving = _mm256_cmp_ps::<_CMP_NEQ_OQ>(per[k], zero);
-                        let ahead = _mm256_cmp_ps::<_CMP_GT_OQ>(per[k], zero);
-                        let first = _mm256_sub_epi32(c[k], _mm256_sub_epi32(radius, onei));
-                        let lo = _mm256_mul_ps(_mm256_cvtepi32_ps(first), set(CELL));
-                        let up = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_add_epi32(c[k], radius)), set(CELL));
-                        let inv = _mm256_div_ps(set(1.0), _mm256_blendv_ps(set(1.0), per[k], moving));
-                        let tk = _mm256_mul_ps(_mm256_sub_ps(_mm256_blendv_ps(lo, up, ahead), uc[k]), inv);
-                        exit = _mm256_min_ps(exit, _mm256_blendv_ps(set(3.0e38), tk, moving));
-                    }
-                    let exit = _mm256_max_ps(exit, zero);
+                    let exit = cells.exit(&cell, radius);
                     let kf = _mm256_ceil_ps(_mm256_sub_ps(
                         _mm256_sub_ps(_mm256_div_ps(_mm256_add_ps(at, exit), h), set(0.5)),
                         _mm256_add_ps(rays.shift, set(1e-3)),

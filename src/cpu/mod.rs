@@ -25,6 +25,8 @@
 #[cfg(target_arch = "x86_64")]
 mod avx2;
 #[cfg(target_arch = "x86_64")]
+mod cells;
+#[cfg(target_arch = "x86_64")]
 mod isosurface;
 #[cfg(target_arch = "x86_64")]
 mod projection;

@@ -9,7 +9,8 @@ use super::avx2::{
     Texels,
 };
 use super::rays8::hash32;
-use super::{Frame, Model, Stats, CELL, TILE};
+use super::cells::byte;
+use super::{Frame, Model, Stats, TILE};
 use crate::occupancy::UNIFORM_FLAG;
 use std::arch::x86_64::*;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -108,27 +109,14 @@ pub unsafe fn track<T: Texels>(
     let seed = seti(crate::model::hash32(p.jitter_seed ^ 0x68e3_1da4) as i32);
     let stream = |k: __m256i| hash32(_mm256_xor_si256(idx, hash32(_mm256_xor_si256(k, seed))));
 
-    // The occupancy cell holding ray offset `at` (skipping.wgsl
-    // `cell_of(voxel_coords(..))`): its index, coordinates, and the point's
-    // voxel coordinates.
-    let (grid, cells) = match f.cells {
-        Some((codes, grid)) => (grid, codes.as_ptr() as *const i32),
+    // The occupancy cells along the rays, and their codes.
+    let (grid, codes) = match f.cells {
+        Some((codes, grid)) => (grid, codes.as_ptr()),
         None => ([1; 3], std::ptr::null()),
     };
-    let grid_hi = grid.map(|g| seti(g as i32 - 1));
-    let border = set(0.5 - p.border as f32);
-    let cell_of = |at: __m256| -> (__m256i, [__m256i; 3], [__m256; 3]) {
-        let uc: [__m256; 3] = std::array::from_fn(|k| _mm256_add_ps(_mm256_fmadd_ps(per[k], at, start[k]), border));
-        let c: [__m256i; 3] = std::array::from_fn(|k| {
-            let ci = _mm256_cvttps_epi32(_mm256_floor_ps(_mm256_mul_ps(uc[k], set(1.0 / CELL))));
-            _mm256_min_epi32(_mm256_max_epi32(ci, zi), grid_hi[k])
-        });
-        let at = _mm256_add_epi32(_mm256_mullo_epi32(_mm256_add_epi32(_mm256_mullo_epi32(c[0], seti(grid[1] as i32)), c[1]), seti(grid[2] as i32)), c[2]);
-        (at, c, uc)
-    };
-    // A byte per cell, read as the low byte of a 32-bit word.
-    let cell_byte = |codes: *const i32, at: __m256i| _mm256_and_si256(_mm256_i32gather_epi32::<1>(codes, at), seti(0xff));
-    let skip_empty = f.skip_empty && !cells.is_null();
+    let back = f.back_to_front;
+    let cells = super::cells::Cells::new(p, start, per, grid, back);
+    let skip_empty = f.skip_empty && !codes.is_null();
     // A block's rate (tracking.wgsl `segment_rate`): its midpoint cell's
     // majorant between a point a step and the frame's rate; 0 for an empty
     // cell when leaping.
@@ -137,8 +125,10 @@ pub unsafe fn track<T: Texels>(
         let Some(majorants) = f.majorants else {
             return track_rate;
         };
-        let (at, _, _) = cell_of(_mm256_fmadd_ps(blen, set(0.5), bstart));
-        let q = cell_byte(majorants.as_ptr() as *const i32, at);
+        let cell = cells.at(_mm256_fmadd_ps(blen, set(0.5), bstart));
+        // SAFETY: the cell is clamped into the grid, whose majorants are
+        // followed by three bytes (`super::render` checks).
+        let q = unsafe { byte(majorants.as_ptr(), cell.index) };
         let own = _mm256_mul_ps(_mm256_i32gather_ps::<4>(CODE_RATES.as_ptr(), q), set(p.inv_ref));
         let frame_rate = _mm256_or_si256(_mm256_cmpeq_epi32(q, zi), _mm256_cmpeq_epi32(q, seti(255)));
         let rate = _mm256_blendv_ps(own, track_rate, as_ps(frame_rate));
@@ -152,25 +142,13 @@ pub unsafe fn track<T: Texels>(
     // Ray parameter from `at` to where the ray, marching on, leaves the
     // empty cube around its cell (skipping.wgsl `empty_cell_exit`), and the
     // lanes whose cell is empty.
-    let back = f.back_to_front;
-    let ahead: [__m256; 3] =
-        std::array::from_fn(|k| _mm256_cmp_ps::<_CMP_GT_OQ>(if back { _mm256_sub_ps(zero, per[k]) } else { per[k] }, zero));
-    let moving: [__m256; 3] = std::array::from_fn(|k| _mm256_cmp_ps::<_CMP_NEQ_OQ>(per[k], zero));
-    let per_voxel: [__m256; 3] = std::array::from_fn(|k| _mm256_div_ps(one, _mm256_blendv_ps(one, per[k], moving[k])));
     let empty_exit = |at: __m256| -> (__m256, __m256) {
-        let (i, c, uc) = cell_of(at);
-        let code = cell_byte(cells, i);
+        let cell = cells.at(at);
+        // SAFETY: as in `rate_of`, for the occupancy codes.
+        let code = unsafe { byte(codes, cell.index) };
         let flagged = _mm256_cmpgt_epi32(code, seti(UNIFORM_FLAG as i32 - 1));
         let radius = _mm256_andnot_si256(flagged, code);
-        let mut exit = set(3.0e38);
-        for k in 0..3 {
-            let lo = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_sub_epi32(c[k], _mm256_sub_epi32(radius, onei))), set(CELL));
-            let up = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_add_epi32(c[k], radius)), set(CELL));
-            let tk = _mm256_mul_ps(_mm256_sub_ps(_mm256_blendv_ps(lo, up, ahead[k]), uc[k]), per_voxel[k]);
-            let tk = if back { _mm256_sub_ps(zero, tk) } else { tk };
-            exit = _mm256_min_ps(exit, _mm256_blendv_ps(set(3.0e38), tk, moving[k]));
-        }
-        (_mm256_max_ps(exit, zero), as_ps(_mm256_cmpgt_epi32(radius, zi)))
+        (cells.exit(&cell, radius), as_ps(_mm256_cmpgt_epi32(radius, zi)))
     };
 
     // The walk: block k (its span, stream and rate), the next point at
