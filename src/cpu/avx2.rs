@@ -708,12 +708,14 @@ pub(super) fn corners(u: &[__m256; 3], hi: &[__m256i; 3], stride: &[__m256i; 3])
 /// Stops early (its pixels then are garbage) once `halt` is set.
 ///
 /// # Safety
-/// Needs AVX2, FMA and F16C; `f.cells`, where given, is followed by three
+/// Needs AVX2, FMA and F16C; `clear` is `f`'s (`Clear::new` of its lookup
+/// and pre-integration tables); `f.cells`, where given, is followed by three
 /// readable bytes, and the texels by the padding their reads need
 /// (`Texels::padded`, which `super::render` checks).
 #[target_feature(enable = "avx2,fma,f16c")]
 pub unsafe fn march<T: Texels>(
     f: &Frame,
+    clear: &super::clear::Clear,
     tex: &T,
     col0: u32,
     row: u32,
@@ -799,14 +801,38 @@ pub unsafe fn march<T: Texels>(
         };
         _mm256_fmadd_ps(_mm256_sub_ps(e1, e0), t, e0)
     };
-    // The table's bilinear entry for (front, back) values, as the sampler reads it.
-    let table_entry = |vf: __m256, vb: __m256, t: &super::PreintTable| -> [__m256; 4] {
+    // Lanes whose midpoint sample of value v (not NaN) has opacity 0
+    // (`clear`): the lookup table's interval as lut_entry finds it.
+    let sample_clear = |v: __m256| -> __m256 {
+        let xl = _mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(v, zero), one), lut_scale);
+        let k = _mm256_min_epi32(_mm256_cvttps_epi32(xl), lut_last);
+        // SAFETY: 0 <= k <= M - 2, an interval of the lookup table's M - 1.
+        let first = unsafe { _mm256_i32gather_epi32::<4>(clear.lut.as_ptr(), k) };
+        as_ps(_mm256_cmpgt_epi32(first, k))
+    };
+    // The table's entries (x0, y0) a bilinear lookup of (front, back)
+    // values starts from, and its weights, as the sampler reads them.
+    let table_at = |vf: __m256, vb: __m256, t: &super::PreintTable| {
         let scale = _mm256_set1_ps((t.side - 1) as f32);
         let x = _mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(vf, zero), one), scale);
         let y = _mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(vb, zero), one), scale);
         let (x0, y0) = (_mm256_floor_ps(x), _mm256_floor_ps(y));
         let (fx, fy) = (_mm256_sub_ps(x, x0), _mm256_sub_ps(y, y0));
-        let (x0, y0) = (_mm256_cvttps_epi32(x0), _mm256_cvttps_epi32(y0));
+        (_mm256_cvttps_epi32(x0), _mm256_cvttps_epi32(y0), fx, fy)
+    };
+    // Lanes whose lookup from (x0, y0) reads only entries of the table that
+    // are zero (`clear`): its intervals from the smaller to the larger.
+    let segment_clear = |x0: __m256i, y0: __m256i, t: &super::PreintTable| -> __m256 {
+        let last = _mm256_set1_epi32(t.side as i32 - 2);
+        let lo = _mm256_min_epi32(_mm256_min_epi32(x0, y0), last);
+        let hi = _mm256_min_epi32(_mm256_max_epi32(x0, y0), last);
+        // SAFETY: 0 <= lo <= side - 2, an interval of the table's side - 1
+        // (`clear.table` is this table's: `render` builds both from the frame).
+        let first = unsafe { _mm256_i32gather_epi32::<4>(clear.table.as_ptr(), lo) };
+        as_ps(_mm256_cmpgt_epi32(first, hi))
+    };
+    // The table's bilinear entry from `table_at`.
+    let table_entry = |x0: __m256i, y0: __m256i, fx: __m256, fy: __m256, t: &super::PreintTable| -> [__m256; 4] {
         // Each ray's two entries along the front value lie side by side:
         // one 256-bit load a row instead of a gather a channel and corner.
         // Entry x0 + 1 is the sampler's x1 but at x0 = side - 1 (front
@@ -1071,7 +1097,12 @@ pub unsafe fn march<T: Texels>(
             let valid = _mm256_cmp_ps::<_CMP_ORD_Q>(v, v);
             // The normal lit samples take: the texel's, or the field's gradient.
             // Scattered light comes after the segment's extinction is known.
-            let light = if scatters { one } else { sample_light(f, tex, &rays, &u, &texel, at, &hi, &stride) };
+            // A plain pass whose samples all have opacity 0 adds nothing:
+            // no lookup, light or exponential.
+            let nothing = f.preint.is_none()
+                && clear.lut_has_clear
+                && _mm256_movemask_ps(_mm256_andnot_ps(sample_clear(_mm256_and_ps(v, valid)), fetch)) == 0;
+            let light = if scatters || nothing { one } else { sample_light(f, tex, &rays, &u, &texel, at, &hi, &stride) };
             // The midpoint rule (every segment of a plain frame, the shorter
             // end segments of a pre-integrated one): optical depth and colour.
             let midpoint = |seg: __m256| -> (__m256, [__m256; 3]) {
@@ -1088,6 +1119,7 @@ pub unsafe fn march<T: Texels>(
                 (x, std::array::from_fn(|c| _mm256_mul_ps(k, rgba[c])))
             };
             let (x, add) = match f.preint {
+                None if nothing => (zero, [zero; 3]),
                 None if scatters => {
                     let (x, add) = midpoint(seg);
                     let need = _mm256_and_ps(fetch, _mm256_cmp_ps::<_CMP_GT_OQ>(x, zero));
@@ -1147,7 +1179,10 @@ pub unsafe fn march<T: Texels>(
                         add = std::array::from_fn(|c| _mm256_and_ps(sub_add[c], last));
                     }
                     if _mm256_movemask_ps(whole) != 0 {
-                        let e = table_entry(_mm256_and_ps(held_v, known), _mm256_and_ps(v, known), table);
+                        let (x0, y0, fx, fy) = table_at(_mm256_and_ps(held_v, known), _mm256_and_ps(v, known), table);
+                        let skips = clear.table_has_clear
+                            && _mm256_movemask_ps(_mm256_andnot_ps(segment_clear(x0, y0, table), whole)) == 0;
+                        let e = if skips { [zero; 4] } else { table_entry(x0, y0, fx, fy, table) };
                         let k = _mm256_mul_ps(_mm256_set1_ps(0.5), _mm256_add_ps(held_light, light));
                         x = _mm256_blendv_ps(x, e[3], whole);
                         add = std::array::from_fn(|c| _mm256_blendv_ps(add[c], _mm256_mul_ps(e[c], k), whole));

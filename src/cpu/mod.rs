@@ -26,6 +26,7 @@
 mod avx2;
 #[cfg(target_arch = "x86_64")]
 mod cells;
+mod clear;
 #[cfg(target_arch = "x86_64")]
 mod isosurface;
 #[cfg(target_arch = "x86_64")]
@@ -356,6 +357,7 @@ pub fn render(
     let texels = frame.volume.dims.iter().product();
     assert!(frame.volume.texels.padded(texels), "texels and their padding");
     assert!(frame.volume.normals.as_ref().is_none_or(|n| n.len() >= texels), "a normal a texel");
+    let clear = clear::Clear::new(frame.lut, frame.preint.map(|t| (&t.texels[..], t.side)));
     let tiles_x = w.div_ceil(TILE);
     let tiles = tiles_x * h.div_ceil(TILE);
     let next = AtomicUsize::new(0);
@@ -373,7 +375,7 @@ pub fn render(
             for row in y0..(y0 + TILE).min(h) {
                 let mut rgba = [[0f32; 4]; TILE];
                 let mut dist = [f32::INFINITY; TILE];
-                let s = march_row(frame, x0 as u32, row as u32, &mut rgba, &mut dist, &halt);
+                let s = march_row(frame, &clear, x0 as u32, row as u32, &mut rgba, &mut dist, &halt);
                 stats.samples += s.samples;
                 stats.truncated_needed = stats.truncated_needed.max(s.truncated_needed);
                 for (l, c) in rgba.into_iter().enumerate().take(w - x0) {
@@ -455,6 +457,7 @@ pub const MAX_STEPS: u32 = 1 << 30;
 /// right edge are left transparent), and an isosurface's hit distances.
 fn march_row(
     frame: &Frame,
+    clear: &clear::Clear,
     col0: u32,
     row: u32,
     out: &mut [[f32; 4]; TILE],
@@ -474,12 +477,12 @@ fn march_row(
             if frame.unbiased {
                 return with_reader!(frame.volume, frame.lit, t => tracking::track(frame, t, col0, row, out, halt));
             }
-            with_reader!(frame.volume, frame.lit, t => avx2::march(frame, t, col0, row, out, halt))
+            with_reader!(frame.volume, frame.lit, t => avx2::march(frame, clear, t, col0, row, out, halt))
         }
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
-        let _ = (frame, col0, row, out, depth, halt);
+        let _ = (frame, clear, col0, row, out, depth, halt);
         unreachable!("available() is false off x86-64")
     }
 }
