@@ -486,8 +486,14 @@ def test_the_texture_waits_for_a_frame_on_the_shader(kind):
     r = renderer(kind)
     first = r.render(dtype=np.float32, premultiplied=True)
     assert r.last_frame_stats["engine"] == "native" and not r.counters()["volume_texture"]
+    # Uploads are counted by the frame that makes them: the volume's not by
+    # the native one (which counts the transfer function's and the cells').
+    counted = r.counters()["uploaded_bytes"]
+    assert r.last_frame_stats["uploaded_bytes"] == counted < r.counters()["volume_bytes"]
     native, shader = both(r)
     assert r.counters()["volume_texture"]
+    assert shader[1]["uploaded_bytes"] >= r.counters()["volume_bytes"] > native[1]["uploaded_bytes"]
+    assert r.counters()["uploaded_bytes"] >= counted + r.counters()["volume_bytes"]
     assert_same(native, shader, kind)
     assert np.array_equal(first, native[0])
     # A new volume starts without its texture again.

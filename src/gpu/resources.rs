@@ -407,9 +407,10 @@ impl VolumeGpu {
     /// Makes the textures a frame on the shader reads where the native
     /// march's copy stood in for them (`upload`): from that copy, whose
     /// float32 subnormals are flushed to zero, as GPUs that flush them read.
-    pub fn ensure_textures(&mut self, ctx: &GpuContext) -> Result<(), Error> {
+    /// Returns the bytes it uploaded (0 where the textures were there).
+    pub fn ensure_textures(&mut self, ctx: &GpuContext) -> Result<u64, Error> {
         if self.view.is_some() {
-            return Ok(());
+            return Ok(0);
         }
         let cpu = self.cpu.as_ref().expect("a volume without its texture keeps the native march's copy");
         let (size, n) = (extent_of(cpu.dims), cpu.dims.iter().product());
@@ -420,7 +421,13 @@ impl VolumeGpu {
             self.normals = Some(upload_normals(ctx, size, &packed[..n])?.0);
         }
         self.view = Some(view);
-        Ok(())
+        Ok(self.bytes)
+    }
+
+    /// Bytes uploaded when the volume was made: its `bytes`, or none while
+    /// its textures wait for a frame on the shader.
+    pub fn uploaded(&self) -> u64 {
+        if self.view.is_some() { self.bytes } else { 0 }
     }
 
     /// The stored format and where the normals are, for reports.

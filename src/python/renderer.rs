@@ -347,9 +347,11 @@ impl PyRenderer {
         Ok((arr, stats_dict(py, &stats)?))
     }
 
-    /// Life-time counters: frames, volume_uploads, lut_uploads, uploaded_bytes,
-    /// volume_bytes (resident), volume_storage (texel format), pipeline_variants
-    /// (compiled so far).
+    /// Life-time counters: frames, volume_uploads, lut_uploads, uploaded_bytes
+    /// (counted by the frame that uploads them: a texture that waits for a
+    /// frame on the shader, by that frame), volume_bytes (resident),
+    /// volume_storage (texel format), volume_texture (made yet),
+    /// pipeline_variants (compiled so far).
     fn counters<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let c = self.inner.counters;
         let d = PyDict::new(py);

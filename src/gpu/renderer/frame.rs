@@ -314,7 +314,7 @@ impl GpuRenderer {
             return Ok(());
         }
         self.pending_upload += self.tables.upload_preint(&self.ctx)?;
-        self.volume.as_mut().expect("checked by check_ready").ensure_textures(&self.ctx)?;
+        self.pending_upload += self.volume.as_mut().expect("checked by check_ready").ensure_textures(&self.ctx)?;
         let preint = self.tables.preint.as_ref().and_then(|(v, _)| v.as_ref()).unwrap_or(&self.fixed.no_preint);
         let vol = self.volume.as_ref().expect("checked by check_ready");
         let (lut, _) = self.tables.lut.as_ref().expect("checked by check_ready");

@@ -326,7 +326,7 @@ impl GpuRenderer {
     pub fn set_volume_with_precision(&mut self, vol: &VolumeView, precision: Precision) -> Result<(), Error> {
         self.check_process()?;
         let volume = VolumeGpu::upload(&self.ctx, vol, precision, true)?;
-        let total = volume.bytes;
+        let total = volume.uploaded();
         self.volume = Some(volume);
         self.bricks = None;
         self.brick_frame = None;
@@ -358,7 +358,7 @@ impl GpuRenderer {
         let Some(volume) = VolumeGpu::with_gradients(&self.ctx, vol, grid)? else {
             return Ok(false);
         };
-        self.pending_upload += volume.bytes;
+        self.pending_upload += volume.uploaded();
         self.volume = Some(volume);
         self.bind_group = None;
         Ok(true)
