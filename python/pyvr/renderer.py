@@ -924,7 +924,9 @@ class VolumeRenderer:
 
         ``volume_texture`` is False while the native march's copy of the
         texels stands in for the GPU texture: where the adapter is a CPU,
-        the texture is made at the first frame on the shader, not at load.
+        the texture is made at the first frame on the shader, not at load,
+        and ``uploaded_bytes`` (like that frame's
+        ``last_frame_stats["uploaded_bytes"]``) counts it then.
         """
         return self._engine.counters()
 
