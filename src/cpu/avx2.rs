@@ -1097,12 +1097,21 @@ pub unsafe fn march<T: Texels>(
             let valid = _mm256_cmp_ps::<_CMP_ORD_Q>(v, v);
             // The normal lit samples take: the texel's, or the field's gradient.
             // Scattered light comes after the segment's extinction is known.
+            // Lanes whose midpoint sample has opacity 0 (asked where the
+            // transfer function has such values and midpoint samples are taken).
+            let clear_lanes = if clear.lut_has_clear && (f.preint.is_none() || refine > 0) {
+                sample_clear(_mm256_and_ps(v, valid))
+            } else {
+                zero
+            };
             // A plain pass whose samples all have opacity 0 adds nothing:
-            // no lookup, light or exponential.
-            let nothing = f.preint.is_none()
-                && clear.lut_has_clear
-                && _mm256_movemask_ps(_mm256_andnot_ps(sample_clear(_mm256_and_ps(v, valid)), fetch)) == 0;
-            let light = if scatters || nothing { one } else { sample_light(f, tex, &rays, &u, &texel, at, &hi, &stride) };
+            // no lookup, light or exponential. Nor do a refined segment's
+            // samples that all have it; the light is then not needed
+            // either where no lane carries a boundary (which keeps its light).
+            let nothing = f.preint.is_none() && _mm256_movemask_ps(_mm256_andnot_ps(clear_lanes, fetch)) == 0;
+            let sub_nothing = refine > 0 && _mm256_movemask_ps(_mm256_andnot_ps(clear_lanes, in_sub)) == 0;
+            let dark = nothing || (sub_nothing && _mm256_movemask_ps(_mm256_andnot_ps(in_sub, fetch)) == 0);
+            let light = if scatters || dark { one } else { sample_light(f, tex, &rays, &u, &texel, at, &hi, &stride) };
             // The midpoint rule (every segment of a plain frame, the shorter
             // end segments of a pre-integrated one): optical depth and colour.
             let midpoint = |seg: __m256| -> (__m256, [__m256; 3]) {
@@ -1165,7 +1174,7 @@ pub unsafe fn march<T: Texels>(
                         whole = _mm256_andnot_ps(starts, whole);
                     }
                     if _mm256_movemask_ps(in_sub) != 0 {
-                        let (xm, addm) = midpoint(piece);
+                        let (xm, addm) = if sub_nothing { (zero, [zero; 3]) } else { midpoint(piece) };
                         let behind = exp_nonpositive(_mm256_sub_ps(zero, sub_x));
                         for c in 0..3 {
                             sub_add[c] = _mm256_blendv_ps(sub_add[c], _mm256_fmadd_ps(behind, addm[c], sub_add[c]), in_sub);
