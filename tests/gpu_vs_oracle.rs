@@ -200,7 +200,17 @@ fn camera_only_rerender_uploads_only_uniforms() {
     gpu.set_volume(&f.volume).unwrap();
     gpu.set_lut(f.lut).unwrap();
     let (_, first) = gpu.render(&f.camera, &f.light, &f.config).unwrap();
-    assert!(first.uploaded_bytes >= 512 * 4);
+    let volume = 512 * 4;
+    if first.native {
+        // On a CPU adapter the volume's texture waits for a frame on the
+        // shader, which counts it.
+        assert!(first.uploaded_bytes < volume, "native frame uploaded {} bytes", first.uploaded_bytes);
+        gpu.native_march = false;
+        let (_, shader) = gpu.render(&f.camera, &f.light, &f.config).unwrap();
+        assert!(shader.uploaded_bytes >= volume, "first shader frame uploaded {} bytes", shader.uploaded_bytes);
+    } else {
+        assert!(first.uploaded_bytes >= volume);
+    }
     let cam = Camera { position: DVec3::new(-2.0, 0.3, 0.1), ..f.camera };
     let (_, second) = gpu.render(&cam, &f.light, &f.config).unwrap();
     // The uniform block and the 12-byte statistics reset, nothing else.
