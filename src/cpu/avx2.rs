@@ -790,10 +790,14 @@ pub unsafe fn march<T: Texels>(
     };
     let lut_entry = |v: __m256| lut_rgba(f.lut, v);
     // The opacity alone, as lut_entry interpolates it (two gathers).
-    let lut_alpha = |v: __m256| -> __m256 {
+    // The lookup table's interval k (0 to M - 2) holding value v, and v's fraction t of it.
+    let lut_interval = |v: __m256| -> (__m256i, __m256) {
         let xl = _mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(v, zero), one), lut_scale);
         let k = _mm256_min_epi32(_mm256_cvttps_epi32(xl), lut_last);
-        let t = _mm256_sub_ps(xl, _mm256_cvtepi32_ps(k));
+        (k, _mm256_sub_ps(xl, _mm256_cvtepi32_ps(k)))
+    };
+    let lut_alpha = |v: __m256| -> __m256 {
+        let (k, t) = lut_interval(v);
         let at = _mm256_slli_epi32::<2>(k);
         // SAFETY: k <= M - 2, so both entries lie in the table.
         let (e0, e1) = unsafe {
@@ -804,8 +808,7 @@ pub unsafe fn march<T: Texels>(
     // Lanes whose midpoint sample of value v (not NaN) has opacity 0
     // (`clear`): the lookup table's interval as lut_entry finds it.
     let sample_clear = |v: __m256| -> __m256 {
-        let xl = _mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(v, zero), one), lut_scale);
-        let k = _mm256_min_epi32(_mm256_cvttps_epi32(xl), lut_last);
+        let (k, _) = lut_interval(v);
         // SAFETY: 0 <= k <= M - 2, an interval of the lookup table's M - 1.
         let first = unsafe { _mm256_i32gather_epi32::<4>(clear.lut.as_ptr(), k) };
         as_ps(_mm256_cmpgt_epi32(first, k))
