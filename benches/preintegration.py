@@ -11,8 +11,8 @@ shared machine falls on both.
 Gain: for each scene and for max errors of --targets levels, the cheapest
 frame of each kind (plain, pre-integrated, pre-integrated with refined
 segments) that stays within the target, over a sweep of steps without early
-termination (as in benches/accuracy.py), scored against the float64
-integrator's converged image. The last columns are how much less time each
+termination (as in benches/accuracy.py; on a GPU adapter with exact
+filtering), scored against the float64 integrator's converged image. The last columns are how much less time each
 pre-integrated kind needs than plain frames for the same error.
 
 Table: what a new step (or a new transfer function) costs a pre-integrated
