@@ -36,26 +36,47 @@ impl fmt::Display for Error {
 
 impl std::error::Error for Error {}
 
+/// The error for `n` items of `T` that could not be allocated.
+fn out_of_memory<T>(n: usize, what: &str) -> Error {
+    let bytes = (n as u128) * std::mem::size_of::<T>() as u128;
+    Error::OutOfMemory(format!("{what} needs {bytes} bytes of memory, which could not be allocated"))
+}
+
 /// A vector of `n` copies of `value`, or `OutOfMemory` naming `what` when
 /// the memory cannot be had: sizes users choose never abort the process.
 pub fn try_vec<T: Clone>(n: usize, value: T, what: &str) -> Result<Vec<T>, Error> {
     let mut v = Vec::new();
-    v.try_reserve_exact(n).map_err(|_| {
-        let bytes = (n as u128) * std::mem::size_of::<T>() as u128;
-        Error::OutOfMemory(format!("{what} needs {bytes} bytes of memory, which could not be allocated"))
-    })?;
+    v.try_reserve_exact(n).map_err(|_| out_of_memory::<T>(n, what))?;
     v.resize(n, value);
     Ok(v)
+}
+
+/// `try_vec(n, zero, what)` without writing the zeros: the allocator's
+/// zeroed memory (calloc), which for a large image is fresh pages the
+/// kernel zeroes when each is first written, by whichever thread writes it,
+/// rather than a pass over the whole image before a frame starts.
+pub fn try_zeroed<T: bytemuck::Zeroable>(n: usize, what: &str) -> Result<Vec<T>, Error> {
+    let layout = std::alloc::Layout::array::<T>(n).map_err(|_| out_of_memory::<T>(n, what))?;
+    if layout.size() == 0 {
+        return Ok(std::iter::repeat_with(T::zeroed).take(n).collect());
+    }
+    // SAFETY: the layout's size is not zero; the memory is zeroed, a valid
+    // T each (`Zeroable`), and allocated by the global allocator with T's
+    // array layout, as a Vec of capacity n frees it.
+    unsafe {
+        let ptr = std::alloc::alloc_zeroed(layout) as *mut T;
+        if ptr.is_null() {
+            return Err(out_of_memory::<T>(n, what));
+        }
+        Ok(Vec::from_raw_parts(ptr, n, n))
+    }
 }
 
 /// `items` (exactly `n` of them) collected into a vector whose memory is
 /// asked for first, fallibly (see `try_vec`).
 pub fn try_collect<U>(n: usize, what: &str, items: impl Iterator<Item = U>) -> Result<Vec<U>, Error> {
     let mut v = Vec::new();
-    v.try_reserve_exact(n).map_err(|_| {
-        let bytes = (n as u128) * std::mem::size_of::<U>() as u128;
-        Error::OutOfMemory(format!("{what} needs {bytes} bytes of memory, which could not be allocated"))
-    })?;
+    v.try_reserve_exact(n).map_err(|_| out_of_memory::<U>(n, what))?;
     v.extend(items);
     Ok(v)
 }
@@ -69,5 +90,12 @@ mod tests {
         let err = try_vec(usize::MAX / 8, 0u64, "the test").unwrap_err();
         assert!(matches!(err, Error::OutOfMemory(ref m) if m.contains("the test")), "{err:?}");
         assert_eq!(try_vec(3, 7u8, "x").unwrap(), vec![7, 7, 7]);
+        let err = try_zeroed::<f32>(usize::MAX / 8, "the zeroed test").unwrap_err();
+        assert!(matches!(err, Error::OutOfMemory(ref m) if m.contains("the zeroed test")), "{err:?}");
+        let err = try_zeroed::<f32>(usize::MAX / 2, "a size past isize").unwrap_err();
+        assert!(matches!(err, Error::OutOfMemory(ref m) if m.contains("a size past isize")), "{err:?}");
+        assert_eq!(try_zeroed::<f32>(5, "x").unwrap(), vec![0.0; 5]);
+        assert_eq!(try_zeroed::<[f32; 4]>(0, "x").unwrap(), Vec::<[f32; 4]>::new());
+        assert_eq!(try_zeroed::<()>(3, "x").unwrap().len(), 3);
     }
 }

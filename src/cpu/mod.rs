@@ -29,6 +29,7 @@ mod cells;
 // Built by `render` on every machine, read by the x86-64 march alone.
 #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
 mod clear;
+mod footprint;
 #[cfg(target_arch = "x86_64")]
 mod isosurface;
 #[cfg(target_arch = "x86_64")]
@@ -320,7 +321,9 @@ impl Depths {
 
 /// Renders the frame into `out` (width * height premultiplied RGBA, row 0
 /// at the bottom) on every core, and an isosurface's hit distances into
-/// `depth` (one a pixel; infinity on a miss), where given. The calling
+/// `depth` (one a pixel; infinity on a miss), where given. With `blank`
+/// (`out` holds zeros and `depth` infinities already) the pixels outside
+/// the box's footprint are not written. The calling
 /// thread asks `stop` about every 10 ms while the workers march (each ray
 /// checks for a stop every 1024 steps), so a frame of any length can be
 /// interrupted. Needs `available()`.
@@ -328,6 +331,7 @@ pub fn render(
     frame: &Frame,
     out: &mut [[f32; 4]],
     mut depth: Option<&mut [f32]>,
+    blank: bool,
     stop: &mut dyn FnMut() -> bool,
 ) -> Result<Stats, Interrupted> {
     let p = frame.params;
@@ -362,6 +366,7 @@ pub fn render(
     let clear = clear::Clear::new(frame.lut, frame.preint.map(|t| (&t.texels[..], t.side)));
     let tiles_x = w.div_ceil(TILE);
     let tiles = tiles_x * h.div_ceil(TILE);
+    let seen = footprint::footprint(p);
     let next = AtomicUsize::new(0);
     let halt = AtomicBool::new(false);
     let image = Image(out.as_mut_ptr());
@@ -374,12 +379,22 @@ pub fn render(
                 return stats;
             }
             let (x0, y0) = ((tile % tiles_x) * TILE, (tile / tiles_x) * TILE);
+            let cols = (x0, (x0 + TILE).min(w));
+            let tile_misses = seen.is_some_and(|fp| fp.misses(cols, (y0, (y0 + TILE).min(h))));
+            if tile_misses && blank {
+                continue;
+            }
             for row in y0..(y0 + TILE).min(h) {
                 let mut rgba = [[0f32; 4]; TILE];
                 let mut dist = [f32::INFINITY; TILE];
-                let s = march_row(frame, &clear, x0 as u32, row as u32, &mut rgba, &mut dist, &halt);
-                stats.samples += s.samples;
-                stats.truncated_needed = stats.truncated_needed.max(s.truncated_needed);
+                // Rays that miss the box leave their pixels so (and take no samples).
+                if !(tile_misses || seen.is_some_and(|fp| fp.misses(cols, (row, row + 1)))) {
+                    let s = march_row(frame, &clear, x0 as u32, row as u32, &mut rgba, &mut dist, &halt);
+                    stats.samples += s.samples;
+                    stats.truncated_needed = stats.truncated_needed.max(s.truncated_needed);
+                } else if blank {
+                    continue;
+                }
                 for (l, c) in rgba.into_iter().enumerate().take(w - x0) {
                     // SAFETY: each pixel lies in one tile, taken by one worker.
                     unsafe { image.write(row * w + x0 + l, c) };

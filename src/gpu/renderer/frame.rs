@@ -4,7 +4,7 @@ use super::{Ends, FrameStats, GpuRenderer, Rect, LEAP_MIN_UNIFORM, SKIP_MIN_EMPT
 use crate::config::{OpacityCorrection, RenderConfig};
 use crate::cpu::Model as CpuModel;
 use crate::gpu::bindings;
-use crate::error::{try_vec, Error};
+use crate::error::{try_vec, try_zeroed, Error};
 use crate::gpu::params::{world_unit, FrameInputs, Params};
 use crate::gpu::pipeline::{dispatch_groups, Layout, Variant};
 use crate::gpu::plan::{plan, PassPlan};
@@ -40,6 +40,21 @@ impl GpuRenderer {
         out: &mut [f32],
         stop: &mut dyn FnMut() -> bool,
     ) -> Result<FrameStats, Error> {
+        self.render_frame(camera, light, cfg, out, false, stop)
+    }
+
+    /// `render_into_interruptible`; `blank`: `out` holds zeros already, so
+    /// the native march leaves the pixels whose rays miss the box unwritten
+    /// (a large frame's pages it never touches then cost nothing).
+    fn render_frame(
+        &mut self,
+        camera: &Camera,
+        light: &Light,
+        cfg: &RenderConfig,
+        out: &mut [f32],
+        blank: bool,
+        stop: &mut dyn FnMut() -> bool,
+    ) -> Result<FrameStats, Error> {
         self.check_process()?;
         let n = self.width as usize * self.height as usize * 4;
         if out.len() != n {
@@ -52,12 +67,14 @@ impl GpuRenderer {
         self.native_depth = None;
         if self.skip_empty && self.occupancy.empty_fraction == 1.0 && cfg.model.skips_transparent() {
             // Every sample of every ray would have opacity 0.
-            out.fill(0.0);
+            if !blank {
+                out.fill(0.0);
+            }
             return Ok(self.finish_frame(FrameStats::default(), 0));
         }
         let (variant, passes) = self.prepare(camera, light, cfg)?;
         if self.native_covers(&variant, cfg) {
-            return self.render_native(&variant, &params, out, stop);
+            return self.render_native(&variant, &params, out, blank, stop);
         }
         self.bind(variant.layout.hw_filter)?;
         let started = std::time::Instant::now();
@@ -108,7 +125,14 @@ impl GpuRenderer {
             && cfg.max_steps <= crate::cpu::MAX_STEPS as i64
     }
 
-    fn render_native(&mut self, variant: &Variant, params: &Params, out: &mut [f32], stop: &mut dyn FnMut() -> bool) -> Result<FrameStats, Error> {
+    fn render_native(
+        &mut self,
+        variant: &Variant,
+        params: &Params,
+        out: &mut [f32],
+        blank: bool,
+        stop: &mut dyn FnMut() -> bool,
+    ) -> Result<FrameStats, Error> {
         let cpu = self.volume.as_ref().and_then(|v| v.cpu.as_ref()).expect("checked by native_covers");
         let occ = &self.occupancy;
         // The march's workers flush subnormal results to zero but read
@@ -153,7 +177,8 @@ impl GpuRenderer {
             majorants: (variant.unbiased && variant.cell_rates && cells).then_some(&occ.majorants[..]),
         };
         let mut depth = if iso { Some(try_vec(out.len() / 4, f32::INFINITY, "the depth image")?) } else { None };
-        let s = crate::cpu::render(&frame, bytemuck::cast_slice_mut(out), depth.as_deref_mut(), stop)
+        // (The depth image starts at infinity, a miss's.)
+        let s = crate::cpu::render(&frame, bytemuck::cast_slice_mut(out), depth.as_deref_mut(), blank, stop)
             .map_err(|_| Error::Interrupted)?;
         if iso {
             self.depth_unit = world_unit(&self.volume.as_ref().expect("checked by native_covers").bounds);
@@ -463,8 +488,8 @@ impl GpuRenderer {
         cfg: &RenderConfig,
         stop: &mut dyn FnMut() -> bool,
     ) -> Result<(Vec<f32>, FrameStats), Error> {
-        let mut out = try_vec(self.width as usize * self.height as usize * 4, 0.0f32, "the image")?;
-        let stats = self.render_into_interruptible(camera, light, cfg, &mut out, stop)?;
+        let mut out = try_zeroed::<f32>(self.width as usize * self.height as usize * 4, "the image")?;
+        let stats = self.render_frame(camera, light, cfg, &mut out, true, stop)?;
         Ok((out, stats))
     }
 }
