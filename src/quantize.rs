@@ -1,4 +1,5 @@
-//! Float frames to 8-bit images.
+//! Premultiplied float frames as `render` returns them: 8-bit codes, or
+//! float straight colour.
 
 /// Converts premultiplied float RGBA to 8-bit. `straight` divides colour by
 /// alpha (unassociated output); values are clamped to [0, 1] and rounded.
@@ -17,26 +18,60 @@ pub fn to_u8(rgba: &[f32], straight: bool, out: &mut [u8]) {
     }
 }
 
-/// `to_u8` on every core, in runs of whole pixels: a 2048x2048 frame took
-/// 45-51 ms on one core of the 2-core VM, longer than the GPU's frame.
-pub fn to_u8_parallel(rgba: &[f32], straight: bool, out: &mut [u8]) {
-    const MIN_PIXELS: usize = 1 << 16;
-    let pixels = rgba.len() / 4;
-    let threads = crate::cores::cores().min(pixels / MIN_PIXELS).max(1);
-    if threads == 1 {
-        return to_u8(rgba, straight, out);
+/// Straight colour from premultiplied, in place, as numpy's
+/// `clip(where(a > 0, c / a, c), 0, 1)` gives it bit for bit: colour over
+/// alpha where alpha is above 0, kept where not (nothing there, or the
+/// emission model's additive glow), then clamped to [0, 1].
+/// Alpha is left as it is.
+pub fn straighten(rgba: &mut [f32]) {
+    for px in rgba.chunks_exact_mut(4) {
+        let a = px[3];
+        // (clamp, as numpy's clip, keeps NaN and -0.)
+        let c: [f32; 3] = std::array::from_fn(|k| (if a > 0.0 { px[k] / a } else { px[k] }).clamp(0.0, 1.0));
+        // Written only where it changes: a frame's empty pixels may lie in
+        // pages never written (zeroed memory), which a write would fault in.
+        if c.map(f32::to_bits) != [px[0], px[1], px[2]].map(f32::to_bits) {
+            px[..3].copy_from_slice(&c);
+        }
     }
-    let run = pixels.div_ceil(threads) * 4;
+}
+
+/// The pixels in each core's run, or None where one core does it all
+/// (small frames). One core took 45-51 ms to quantize a 2048x2048 frame on
+/// the 2-core VM, longer than the GPU's frame.
+fn run_pixels(pixels: usize) -> Option<usize> {
+    const MIN_PIXELS: usize = 1 << 16;
+    let threads = crate::cores::cores().min(pixels / MIN_PIXELS);
+    (threads > 1).then(|| pixels.div_ceil(threads))
+}
+
+/// `to_u8` on every core, in runs of whole pixels.
+pub fn to_u8_parallel(rgba: &[f32], straight: bool, out: &mut [u8]) {
+    let Some(run) = run_pixels(rgba.len() / 4) else {
+        return to_u8(rgba, straight, out);
+    };
     std::thread::scope(|s| {
-        for (src, dst) in rgba.chunks(run).zip(out.chunks_mut(run)) {
+        for (src, dst) in rgba.chunks(4 * run).zip(out.chunks_mut(4 * run)) {
             s.spawn(move || to_u8(src, straight, dst));
+        }
+    });
+}
+
+/// `straighten` on every core, in runs of whole pixels.
+pub fn straighten_parallel(rgba: &mut [f32]) {
+    let Some(run) = run_pixels(rgba.len() / 4) else {
+        return straighten(rgba);
+    };
+    std::thread::scope(|s| {
+        for part in rgba.chunks_mut(4 * run) {
+            s.spawn(move || straighten(part));
         }
     });
 }
 
 #[cfg(test)]
 mod tests {
-    use super::{to_u8, to_u8_parallel};
+    use super::{straighten, straighten_parallel, to_u8, to_u8_parallel};
 
     #[test]
     fn every_core_gives_the_codes_of_one() {
@@ -49,6 +84,26 @@ mod tests {
             to_u8_parallel(&rgba, straight, &mut all);
             assert!(one == all);
         }
+    }
+
+    #[test]
+    fn straight_colour_on_every_core_is_that_of_one() {
+        let n: usize = (1 << 18) + 5;
+        let rgba: Vec<f32> = (0..4 * n).map(|i| ((i * 7919) % 1021) as f32 / 900.0 - 0.05).collect();
+        let (mut one, mut all) = (rgba.clone(), rgba);
+        straighten(&mut one);
+        straighten_parallel(&mut all);
+        assert!(one.iter().zip(&all).all(|(a, b)| a.to_bits() == b.to_bits()));
+    }
+
+    #[test]
+    fn straightens_clamps_and_keeps_what_has_no_alpha() {
+        let nan = f32::NAN;
+        let mut px = [0.25, 0.5, 2.0, 0.5, 0.3, -0.2, -0.0, 0.0, nan, 0.2, 0.1, 0.4, 0.1, 0.2, 0.3, nan];
+        straighten(&mut px);
+        let want = [0.5, 1.0, 1.0, 0.5, 0.3, 0.0, -0.0, 0.0, nan, 0.5, 0.25, 0.4, 0.1, 0.2, 0.3, nan];
+        let bits = |x: &[f32]| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&px), bits(&want));
     }
 
     #[test]

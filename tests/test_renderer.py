@@ -253,7 +253,30 @@ def test_core_rejects_bad_arguments_with_python_errors():
     assert img.shape == (4, 4, 4) and stats["truncated_needed"] == 0
     with pytest.raises(ValueError, match=r"shape \(H, W, 4\)"):
         _core.quantize(np.zeros((2, 2, 3), np.float32))
+    with pytest.raises(ValueError, match=r"shape \(H, W, 4\)"):
+        _core.straighten(np.zeros((2, 2, 3), np.float32))
+    with pytest.raises(ValueError, match="C-contiguous"):
+        _core.straighten(np.zeros((4, 4, 4), np.float32)[:, ::2])
     assert _core.colormap_table("nope") is None
+
+
+def test_straight_float_frames_are_numpys_rule_bit_for_bit():
+    """render(dtype=float32) un-premultiplies in Rust, on every core (a
+    2048x2048 frame took about 170 ms in numpy on the 2-core VM): the same
+    bits as numpy's clip(where(a > 0, c / a, c), 0, 1), around zero and one,
+    for NaN, infinities and negative zeros."""
+    from pyvr.renderer import _straight
+
+    rng = np.random.default_rng(5)
+    img = rng.uniform(-0.2, 1.3, (300, 301, 4)).astype(np.float32)
+    special = np.array([0.0, -0.0, np.nan, np.inf, -np.inf, 1.0, 1e-45, -1e-45], np.float32)
+    img.reshape(-1)[::7] = np.resize(special, img.size)[: img.size][::7]
+    want = _straight(img)
+    got = img.copy()
+    _core.straighten(got)
+    assert np.array_equal(got[..., 3].view(np.uint32), img[..., 3].view(np.uint32)), "alpha is left as it is"
+    assert np.array_equal(got[..., :3].view(np.uint32), want.view(np.uint32))
+    assert np.isnan(want).any() and (img[..., 3] <= 0).any() and (want == 1.0).any() and (want == 0.0).any()
 
 
 def test_big_endian_data_renders_as_its_values():

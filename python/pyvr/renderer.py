@@ -131,7 +131,8 @@ def output_image(img: np.ndarray, dt: np.dtype, premultiplied: bool, bg, origin:
     else:
         out = img
         if not premultiplied:
-            out[..., :3] = _straight(out)
+            # _straight's rule in place, on every core.
+            _core.straighten(out)
     if origin == "upper":
         out = np.ascontiguousarray(out[::-1])
     return out

@@ -4,8 +4,8 @@
 //! is checked again here: bad input is a ValueError/TypeError, never a panic.
 
 use super::config::PyRenderConfig;
-use crate::error::{try_collect, try_vec};
-use crate::quantize::to_u8_parallel;
+use crate::error::{try_collect, try_zeroed};
+use crate::quantize::{straighten_parallel, to_u8_parallel};
 use super::args::integer;
 use super::errors::{guarded, run_released, to_py, to_py_in};
 use crate::gpu::GpuRenderer;
@@ -14,7 +14,10 @@ use crate::scene::{Bounds, Camera, Light, LightKind};
 use crate::transfer::ValueMap;
 use crate::volume::{Precision, VolumeView, Voxels};
 use glam::DVec3;
-use numpy::{PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray2, PyReadonlyArray3, PyReadonlyArray4, PyUntypedArrayMethods};
+use numpy::{
+    PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray2, PyReadonlyArray3, PyReadonlyArray4, PyReadwriteArray3,
+    PyUntypedArrayMethods,
+};
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -339,7 +342,7 @@ impl PyRenderer {
         let (w, h) = self.inner.size();
         let inner = &mut *self.inner;
         let (img, stats) = run_released(py, |_| {
-            let mut out = try_vec(w as usize * h as usize * 4, 0.0f32, "the image")?;
+            let mut out = try_zeroed::<f32>(w as usize * h as usize * 4, "the image")?;
             let stats = inner.end_bricks(&mut out)?;
             Ok((out, stats))
         })?;
@@ -460,10 +463,24 @@ pub fn quantize<'py>(py: Python<'py>, rgba: PyReadonlyArray3<'py, f32>, straight
         return Err(PyValueError::new_err(format!("expected shape (H, W, 4), got {s:?}")));
     }
     let src = rgba.as_slice().map_err(|_| PyValueError::new_err("image must be C-contiguous"))?;
-    let mut out = try_vec(src.len(), 0u8, "the 8-bit image").map_err(to_py)?;
+    let mut out = try_zeroed::<u8>(src.len(), "the 8-bit image").map_err(to_py)?;
     // The GIL stays held: the array is borrowed, and Python may write it.
     to_u8_parallel(src, straight, &mut out);
     PyArray1::from_vec(py, out).reshape([s[0], s[1], 4])
+}
+
+/// Premultiplied float RGBA (H, W, 4), C-contiguous, made straight in
+/// place: colour over alpha where alpha > 0, clipped to [0, 1].
+#[pyfunction]
+pub fn straighten(mut rgba: PyReadwriteArray3<'_, f32>) -> PyResult<()> {
+    let s = rgba.shape().to_vec();
+    if s[2] != 4 {
+        return Err(PyValueError::new_err(format!("expected shape (H, W, 4), got {s:?}")));
+    }
+    let px = rgba.as_slice_mut().map_err(|_| PyValueError::new_err("image must be C-contiguous"))?;
+    // The GIL stays held: the array is borrowed, and Python may read it.
+    straighten_parallel(px);
+    Ok(())
 }
 
 /// The f64 integrator: the same frame as the GPU renders, in double
