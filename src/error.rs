@@ -68,8 +68,31 @@ pub fn try_zeroed<T: bytemuck::Zeroable>(n: usize, what: &str) -> Result<Vec<T>,
         if ptr.is_null() {
             return Err(out_of_memory::<T>(n, what));
         }
+        huge_pages(ptr as *mut u8, layout.size());
         Ok(Vec::from_raw_parts(ptr, n, n))
     }
+}
+
+/// Asks Linux to back `len` bytes from `ptr`, not yet written, with
+/// transparent huge pages where it has them (numpy does the same for its
+/// arrays of 4 MiB and more): a 2048x2048 float image is 16384 pages of
+/// 4 KiB, and faulting them in one by one cost 33 ms of a frame on the
+/// 2-core VM; 2 MiB pages are 32 faults. Only a hint: errors are ignored.
+fn huge_pages(ptr: *mut u8, len: usize) {
+    #[cfg(target_os = "linux")]
+    if len >= 4 << 20 {
+        const HUGE: usize = 2 << 20;
+        // The whole 2 MiB pages inside the range.
+        let start = (ptr as usize).next_multiple_of(HUGE);
+        let end = (ptr as usize + len) / HUGE * HUGE;
+        if end > start {
+            // SAFETY: the range lies inside the allocation; MADV_HUGEPAGE
+            // changes how its pages are backed, never their contents.
+            unsafe { libc::madvise(start as *mut libc::c_void, end - start, libc::MADV_HUGEPAGE) };
+        }
+    }
+    #[cfg(not(target_os = "linux"))]
+    let _ = (ptr, len);
 }
 
 /// `items` (exactly `n` of them) collected into a vector whose memory is
@@ -97,5 +120,10 @@ mod tests {
         assert_eq!(try_zeroed::<f32>(5, "x").unwrap(), vec![0.0; 5]);
         assert_eq!(try_zeroed::<[f32; 4]>(0, "x").unwrap(), Vec::<[f32; 4]>::new());
         assert_eq!(try_zeroed::<()>(3, "x").unwrap().len(), 3);
+        // Large enough for huge pages: zeros, and writable.
+        let mut big = try_zeroed::<f32>(3 << 20, "x").unwrap();
+        assert!(big.iter().all(|&v| v.to_bits() == 0));
+        big[(3 << 20) - 1] = 1.0;
+        assert_eq!(big.iter().sum::<f32>(), 1.0);
     }
 }

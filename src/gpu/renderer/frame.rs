@@ -193,7 +193,7 @@ impl GpuRenderer {
     /// statistics (largest step count a truncated ray needed, samples).
     pub(super) fn read_image(&self, out: &mut [f32]) -> Result<(u32, u64), Error> {
         read_buffers(&self.ctx, &[&self.frame.output.readback, &self.frame.stats_readback], "the image", |data| {
-            out.copy_from_slice(bytemuck::cast_slice(data[0]));
+            copy_on_every_core(out, bytemuck::cast_slice(data[0]));
             let w: &[u32] = bytemuck::cast_slice(data[1]);
             (w[0], w[1] as u64 | (w[2] as u64) << 32)
         })
@@ -491,5 +491,37 @@ impl GpuRenderer {
         let mut out = try_zeroed::<f32>(self.width as usize * self.height as usize * 4, "the image")?;
         let stats = self.render_frame(camera, light, cfg, &mut out, true, stop)?;
         Ok((out, stats))
+    }
+}
+
+/// `dst.copy_from_slice(src)` on every core, in runs of 1 MiB or more. The
+/// mapped readback memory is slow to read from one core: copying a
+/// 2048x2048 image (64 MiB) out of it took 25 ms on one core of the H200's
+/// host, 3 ms on its 16 (43 and 7 ms where the image's pages were 4 KiB).
+fn copy_on_every_core(dst: &mut [f32], src: &[f32]) {
+    const MIN_RUN: usize = 1 << 18;
+    let run = dst.len().div_ceil(crate::cores::cores()).max(MIN_RUN);
+    if run >= dst.len() {
+        return dst.copy_from_slice(src);
+    }
+    std::thread::scope(|s| {
+        for (d, c) in dst.chunks_mut(run).zip(src.chunks(run)) {
+            s.spawn(move || d.copy_from_slice(c));
+        }
+    });
+}
+
+#[cfg(test)]
+mod tests {
+    /// Runs that do not divide the image evenly, on however many cores.
+    #[test]
+    fn every_core_copies_the_whole_image() {
+        let src: Vec<f32> = (0..(3 << 18) + 5).map(|i| i as f32).collect();
+        let mut dst = vec![-1.0; src.len()];
+        super::copy_on_every_core(&mut dst, &src);
+        assert!(dst == src);
+        let mut small = vec![0.0; 3];
+        super::copy_on_every_core(&mut small, &[1.0, 2.0, 3.0]);
+        assert_eq!(small, [1.0, 2.0, 3.0]);
     }
 }
