@@ -78,12 +78,8 @@ pub fn footprint(p: &Params) -> Option<Footprint> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cpu::{CpuVolume, Frame, Model, Ray, Texels};
-
-    fn pick(k: &mut u32, lo: f32, hi: f32) -> f32 {
-        *k += 1;
-        lo + (hi - lo) * (crate::model::hash32(*k) >> 8) as f32 / 16_777_216.0
-    }
+    use crate::cpu::test_rays::{frame, pick};
+    use crate::cpu::{CpuVolume, Ray, Texels};
 
     /// Every pixel whose ray (the scalar rule's) meets the box lies in the
     /// footprint, over cameras near and far, inside the box and grazing it,
@@ -125,27 +121,7 @@ mod tests {
                 max_steps: 1000,
                 ..Default::default()
             };
-            let frame = Frame {
-                params: &p,
-                volume: &volume,
-                lut: &[],
-                cells: None,
-                skip_empty: false,
-                lit: false,
-                gradient: false,
-                point_light: false,
-                early_termination: true,
-                jitter: false,
-                uniform_runs: false,
-                model: Model::EmissionAbsorption,
-                preint: None,
-                refine: 0,
-                power: false,
-                scatter: false,
-                unbiased: false,
-                back_to_front: false,
-                majorants: None,
-            };
+            let frame = frame(&p, &volume);
             let Some(fp) = footprint(&p) else {
                 unbounded += 1;
                 continue;

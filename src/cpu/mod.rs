@@ -613,3 +613,42 @@ pub(crate) const CELL: f32 = BLOCK as f32;
 
 /// Empty cubes a pre-integrated leap crosses at most (as the shader's CHAIN).
 pub(crate) const CHAIN: usize = 4;
+
+/// What the tests of the rays and the footprint build their frames from.
+#[cfg(test)]
+pub(crate) mod test_rays {
+    use super::{CpuVolume, Frame, Model};
+    use crate::gpu::params::Params;
+
+    /// A number in [lo, hi) from a counter.
+    pub fn pick(k: &mut u32, lo: f32, hi: f32) -> f32 {
+        *k += 1;
+        lo + (hi - lo) * (crate::model::hash32(*k) >> 8) as f32 / 16_777_216.0
+    }
+
+    /// A plain emission–absorption frame of `params` (no table, cells, light,
+    /// skipping or jitter; early termination on): the rays are all it holds.
+    pub fn frame<'a>(params: &'a Params, volume: &'a CpuVolume) -> Frame<'a> {
+        Frame {
+            params,
+            volume,
+            lut: &[],
+            cells: None,
+            skip_empty: false,
+            lit: false,
+            gradient: false,
+            point_light: false,
+            early_termination: true,
+            jitter: false,
+            uniform_runs: false,
+            model: Model::EmissionAbsorption,
+            preint: None,
+            refine: 0,
+            power: false,
+            scatter: false,
+            unbiased: false,
+            back_to_front: false,
+            majorants: None,
+        }
+    }
+}

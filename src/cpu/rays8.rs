@@ -180,14 +180,9 @@ const _: () = assert!(TILE == 8, "eight rays fill an AVX2 register");
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cpu::{CpuVolume, Model, Ray, Texels};
+    use crate::cpu::test_rays::pick;
+    use crate::cpu::{CpuVolume, Ray, Texels};
     use crate::gpu::params::Params;
-
-    /// A number in [lo, hi) from a counter.
-    fn pick(k: &mut u32, lo: f32, hi: f32) -> f32 {
-        *k += 1;
-        lo + (hi - lo) * (crate::model::hash32(*k) >> 8) as f32 / 16_777_216.0
-    }
 
     /// Every lane equals the scalar rule's ray bit for bit, over cameras
     /// outside, inside and grazing the box, an axis-aligned one whose middle
@@ -231,25 +226,9 @@ mod tests {
             p.occupied_lo = [1.5, 0.5, 2.0, 0.0];
             p.occupied_hi = [7.0, 5.0, 9.5, 1.0];
             let frame = crate::cpu::Frame {
-                params: &p,
-                volume: &volume,
-                lut: &[],
-                cells: None,
                 skip_empty: case % 2 == 0,
-                lit: false,
-                gradient: false,
-                point_light: false,
-                early_termination: true,
                 jitter: case % 3 != 1,
-                uniform_runs: false,
-                model: Model::EmissionAbsorption,
-                preint: None,
-                refine: 0,
-                power: false,
-                scatter: false,
-                unbiased: false,
-                back_to_front: false,
-                majorants: None,
+                ..crate::cpu::test_rays::frame(&p, &volume)
             };
             for row in 0..p.height {
                 for col0 in (0..p.width).step_by(TILE) {
