@@ -262,7 +262,7 @@ def test_core_rejects_bad_arguments_with_python_errors():
 
 def test_straight_float_frames_are_numpys_rule_bit_for_bit():
     """render(dtype=float32) un-premultiplies in Rust, on every core (a
-    2048x2048 frame took about 170 ms in numpy on the 2-core VM): the same
+    2048x2048 frame took 118-167 ms in numpy on the 2-core VM): the same
     bits as numpy's clip(where(a > 0, c / a, c), 0, 1), around zero and one,
     for NaN, infinities and negative zeros."""
     from pyvr.renderer import _straight
