@@ -379,21 +379,25 @@ pub fn render(
                 return stats;
             }
             let (x0, y0) = ((tile % tiles_x) * TILE, (tile / tiles_x) * TILE);
-            let cols = (x0, (x0 + TILE).min(w));
-            let tile_misses = seen.is_some_and(|fp| fp.misses(cols, (y0, (y0 + TILE).min(h))));
+            let (cols, rows) = ((x0, (x0 + TILE).min(w)), (y0, (y0 + TILE).min(h)));
+            // Rays that miss the box leave their pixels transparent (and take
+            // no samples). The whole tile is asked first: asking row by row
+            // alone, a 2048x2048 frame of a box in 1% of it took 3 ms, not 1.5.
+            let tile_misses = seen.is_some_and(|fp| fp.misses(cols, rows));
             if tile_misses && blank {
                 continue;
             }
-            for row in y0..(y0 + TILE).min(h) {
+            for row in rows.0..rows.1 {
+                let misses = tile_misses || seen.is_some_and(|fp| fp.misses(cols, (row, row + 1)));
+                if misses && blank {
+                    continue;
+                }
                 let mut rgba = [[0f32; 4]; TILE];
                 let mut dist = [f32::INFINITY; TILE];
-                // Rays that miss the box leave their pixels so (and take no samples).
-                if !(tile_misses || seen.is_some_and(|fp| fp.misses(cols, (row, row + 1)))) {
+                if !misses {
                     let s = march_row(frame, &clear, x0 as u32, row as u32, &mut rgba, &mut dist, &halt);
                     stats.samples += s.samples;
                     stats.truncated_needed = stats.truncated_needed.max(s.truncated_needed);
-                } else if blank {
-                    continue;
                 }
                 for (l, c) in rgba.into_iter().enumerate().take(w - x0) {
                     // SAFETY: each pixel lies in one tile, taken by one worker.
