@@ -27,14 +27,14 @@ def _exact_filtering_on_gpus(request, monkeypatch):
 
     if device_limits()["cpu_device"] or request.node.get_closest_marker("texture_units"):
         return
-    sampled = VolumeRenderer._render_float
+    sampled = VolumeRenderer._render_frame
 
-    def exact(self, size=None, config=None):
+    def exact(self, size=None, config=None, output=None):
         cfg = (self._config_snapshot if config is None else config).copy()
         cfg.exact_filtering = True
-        return sampled(self, size, cfg)
+        return sampled(self, size, cfg, output)
 
-    monkeypatch.setattr(VolumeRenderer, "_render_float", exact)
+    monkeypatch.setattr(VolumeRenderer, "_render_frame", exact)
 
 
 @pytest.fixture

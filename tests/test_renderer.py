@@ -279,6 +279,56 @@ def test_straight_float_frames_are_numpys_rule_bit_for_bit():
     assert np.isnan(want).any() and (img[..., 3] <= 0).any() and (want == 1.0).any() and (want == 0.0).any()
 
 
+def test_frames_are_made_in_the_returned_format_as_numpys_rules_give_it():
+    """render() writes each pixel in the asked dtype, colour, background and
+    row order as the frame is marched (native march) or copied out (GPU):
+    the same bits as numpy's rules applied to the premultiplied float frame,
+    for every combination; with a box covering part of the view (missed
+    pixels stay zero or take the background) and with a transfer function
+    that shows nothing (the frame is never marched)."""
+    from pyvr.renderer import _straight
+    from scenes import blob, make_renderer
+
+    # An emission-heavy ramp makes colour above alpha, and alpha above 0.
+    otf = OpacityTransferFunction([(0.0, 0.0), (0.3, 0.0), (1.0, 0.9)])
+    r = make_renderer(Volume(blob((20, 18, 16), width=0.6)), size=(37, 29), otf=otf,
+                      camera=Camera.isometric_view(distance=6.0))
+    bg = (0.25, 1.0, 0.1)
+
+    def numpys(base, dt, premultiplied, background, origin):
+        img = base.copy()
+        if background is not None:
+            img[..., :3] += (1.0 - img[..., 3:4]) * np.asarray(background, np.float32)
+            img[..., 3] = 1.0
+        if dt == np.uint8:
+            a = img[..., 3:4]
+            with np.errstate(divide="ignore"):
+                scale = np.where(a > 0, np.float32(1) / a, np.float32(1)) if not premultiplied else np.float32(1)
+            c = np.concatenate([img[..., :3] * scale, a], axis=-1)
+            img = np.clip(np.floor(c * np.float32(255) + np.float32(0.5)), 0, 255).astype(np.uint8)
+        elif not premultiplied:
+            img = np.concatenate([_straight(img), img[..., 3:4]], axis=-1)
+        return img[::-1] if origin == "upper" else img
+
+    for tf_shows in (True, False):
+        if not tf_shows:
+            r.set_transfer_functions(ColorTransferFunction.from_colormap("viridis"),
+                                     OpacityTransferFunction([(0.0, 0.0), (1.0, 0.0)]))
+        base = r.render(dtype=np.float32, premultiplied=True)
+        assert (base[..., 3].max() > 0.5 and (base[..., 3] == 0).mean() > 0.2) == tf_shows
+        for dt in (np.uint8, np.float32):
+            for premultiplied in (False, True):
+                for background in (None, bg):
+                    for origin in ("lower", "upper"):
+                        got = r.render(dtype=dt, premultiplied=premultiplied, background=background, origin=origin)
+                        want = numpys(base, dt, premultiplied, background, origin)
+                        assert got.dtype == dt and got.flags.c_contiguous and got.shape == (29, 37, 4)
+                        if dt == np.float32:
+                            got, want = got.view(np.uint32), want.view(np.uint32)
+                        where = (dt.__name__, premultiplied, background, origin, tf_shows)
+                        assert np.array_equal(got, want), where
+
+
 def test_big_endian_data_renders_as_its_values():
     """uint16 and float32 arrays in big-endian byte order (FITS, NRRD, raw
     files from other machines) render exactly as the native arrays do."""

@@ -122,20 +122,19 @@ def output_image(img: np.ndarray, dt: np.dtype, premultiplied: bool, bg, origin:
     """A frame's premultiplied float RGBA (changed in place) as ``render``
     returns it: over ``bg`` if given, uint8 or float32, straight unless
     ``premultiplied``, rows from the bottom unless ``origin`` is "upper"."""
+    if dt == np.uint8:
+        # Over the background and rows in order in the same pass.
+        return _core.quantize(img, not premultiplied, bg, origin == "upper")
     if bg is not None:
         # Premultiplied colour over an opaque background: C + (1 - A) B.
         img[..., :3] += (1.0 - img[..., 3:4]) * np.asarray(bg, np.float32)
         img[..., 3] = 1.0
-    if dt == np.uint8:
-        out = _core.quantize(img, not premultiplied)
-    else:
-        out = img
-        if not premultiplied:
-            # _straight's rule in place, on every core.
-            _core.straighten(out)
+    if not premultiplied:
+        # _straight's rule in place, on every core.
+        _core.straighten(img)
     if origin == "upper":
-        out = np.ascontiguousarray(out[::-1])
-    return out
+        img = np.ascontiguousarray(img[::-1])
+    return img
 
 
 def check_frame_options(origin, background, dtype) -> None:
@@ -962,7 +961,11 @@ class VolumeRenderer:
             self._engine.pack_gradients(data, *self._bounds)
 
     @_serialised
-    def _render_float(self, size=None, config: Optional[RenderConfig] = None) -> np.ndarray:
+    def _render_frame(self, size=None, config: Optional[RenderConfig] = None, output=None) -> np.ndarray:
+        """One frame. ``output``: (dtype, premultiplied, background, origin)
+        as ``render`` takes them, for the frame as ``render`` returns it,
+        each pixel made so as it is rendered (no pass over the image
+        after); None: float32 premultiplied, row 0 at the bottom."""
         if self.volume is None:
             raise RuntimeError("no volume loaded: call load_volume() before render()")
         self._ensure_tf()
@@ -984,9 +987,15 @@ class VolumeRenderer:
                 b.ghost = need
                 self._layout_bricks(b)
             img, stats = b.render(self._engine, camera_args, self._light_args, cfg)
+            if output is not None:
+                img = output_image(img, *output)
         else:
             self._pack_gradients_for(cfg)
-            img, stats = self._engine.render(camera_args, self._light_args, cfg)
+            spec = None
+            if output is not None:
+                dt, premultiplied, bg, origin = output
+                spec = (dt == np.uint8, not premultiplied, bg, origin == "upper")
+            img, stats = self._engine.render(camera_args, self._light_args, cfg, spec)
         self.last_frame_stats = stats
         needed = stats["truncated_needed"]
         if needed:
@@ -1061,8 +1070,9 @@ class VolumeRenderer:
                 raise TypeError(f"Expected RenderConfig instance, got {type(config)}")
             config.validate()
         n = check_count("accumulate", accumulate, high=1 << 16)
-        img = self._render_float(size, config) if n == 1 else self._accumulated(size, config, n)
-        return output_image(img, dt, premultiplied, bg, origin)
+        if n == 1:
+            return self._render_frame(size, config, (dt, premultiplied, bg, origin))
+        return output_image(self._accumulated(size, config, n), dt, premultiplied, bg, origin)
 
     def _accumulated(self, size, config: Optional[RenderConfig], n: int) -> np.ndarray:
         """The mean of n premultiplied frames (float64 sums): unbiased ones
@@ -1074,7 +1084,7 @@ class VolumeRenderer:
             base = base.replace(jitter=True)
         total = None
         for k in range(n):
-            frame = self._render_float(size, base.replace(jitter_seed=(base.jitter_seed + k) % 2**32))
+            frame = self._render_frame(size, base.replace(jitter_seed=(base.jitter_seed + k) % 2**32))
             total = frame.astype(np.float64) if total is None else total + frame
         return (total / n).astype(np.float32)
 

@@ -294,49 +294,38 @@ pub struct Interrupted;
 /// one core, find the voxels the row before read in that core's caches.
 const TILE: usize = 8;
 
-/// The image's pointer, shared by the workers, each of which writes only
-/// the pixels of the tiles it takes.
-struct Image(*mut [f32; 4]);
-unsafe impl Sync for Image {}
-
-impl Image {
-    /// # Safety
-    /// `i` must lie in the image, and no other thread may write pixel `i`.
-    unsafe fn write(&self, i: usize, c: [f32; 4]) {
-        unsafe { *self.0.add(i) = c };
-    }
-}
-
-/// The depth image's pointer, shared as the image's is.
+/// The depth image's pointer, shared by the workers, each of which writes
+/// only the pixels of the tiles it takes.
 struct Depths(*mut f32);
 unsafe impl Sync for Depths {}
 
 impl Depths {
     /// # Safety
-    /// As `Image::write`.
+    /// `i` must lie in the image, and no other thread may write pixel `i`.
     unsafe fn write(&self, i: usize, d: f32) {
         unsafe { *self.0.add(i) = d };
     }
 }
 
-/// Renders the frame into `out` (width * height premultiplied RGBA, row 0
-/// at the bottom) on every core, and an isosurface's hit distances into
-/// `depth` (one a pixel; infinity on a miss), where given. With `blank`
-/// (`out` holds zeros and `depth` infinities already) the pixels outside
+/// Renders the frame into `out` (width x height, each pixel written in its
+/// format as its row is marched) on every core, and an isosurface's hit
+/// distances into `depth` (one a pixel, row 0 at the bottom; infinity on a
+/// miss), where given. With `blank` (`out` holds what missed pixels would
+/// be, and `depth` infinities, already) the pixels outside
 /// the box's footprint are not written. The calling
 /// thread asks `stop` about every 10 ms while the workers march (each ray
 /// checks for a stop every 1024 steps), so a frame of any length can be
 /// interrupted. Needs `available()`.
 pub fn render(
     frame: &Frame,
-    out: &mut [[f32; 4]],
+    out: &crate::output::Target,
     mut depth: Option<&mut [f32]>,
     blank: bool,
     stop: &mut dyn FnMut() -> bool,
 ) -> Result<Stats, Interrupted> {
     let p = frame.params;
     let (w, h) = (p.width as usize, p.height as usize);
-    assert_eq!(out.len(), w * h, "output size");
+    assert_eq!(out.size(), (w, h), "output size");
     if let Some(d) = &depth {
         assert_eq!(d.len(), w * h, "depth size");
     }
@@ -369,7 +358,6 @@ pub fn render(
     let seen = footprint::footprint(p);
     let next = AtomicUsize::new(0);
     let halt = AtomicBool::new(false);
-    let image = Image(out.as_mut_ptr());
     let depth_image = depth.as_mut().map(|d| Depths(d.as_mut_ptr()));
     let work = || -> Stats {
         let mut stats = Stats::default();
@@ -399,12 +387,13 @@ pub fn render(
                     stats.samples += s.samples;
                     stats.truncated_needed = stats.truncated_needed.max(s.truncated_needed);
                 }
-                for (l, c) in rgba.into_iter().enumerate().take(w - x0) {
-                    // SAFETY: each pixel lies in one tile, taken by one worker.
-                    unsafe { image.write(row * w + x0 + l, c) };
-                    if let Some(d) = &depth_image {
+                let n = TILE.min(w - x0);
+                // SAFETY: each pixel lies in one tile, taken by one worker.
+                unsafe { out.put(row, x0, &rgba[..n]) };
+                if let Some(d) = &depth_image {
+                    for (l, &dist) in dist.iter().enumerate().take(n) {
                         // SAFETY: as for the image.
-                        unsafe { d.write(row * w + x0 + l, dist[l]) };
+                        unsafe { d.write(row * w + x0 + l, dist) };
                     }
                 }
             }

@@ -5,7 +5,7 @@
 
 use super::config::PyRenderConfig;
 use crate::error::{try_collect, try_zeroed};
-use crate::quantize::{straighten_parallel, to_u8_parallel};
+use crate::output::{straighten_parallel, Format, Image, Pixels};
 use super::args::integer;
 use super::errors::{guarded, run_released, to_py, to_py_in};
 use crate::gpu::GpuRenderer;
@@ -242,24 +242,28 @@ impl PyRenderer {
         Ok(())
     }
 
-    /// Renders one frame: float32 (H, W, 4) premultiplied RGBA, row 0 at the
-    /// bottom, and a dict of frame statistics.
-    #[pyo3(signature = (camera, light, config))]
+    /// Renders one frame as a (H, W, 4) array and a dict of frame
+    /// statistics. `output`: (codes, straight, background, top_down) for
+    /// uint8 codes (else float32), straight colour (else premultiplied),
+    /// over an RGB background (None: transparent), row 0 at the top (else
+    /// the bottom); None is float32 premultiplied, transparent, row 0 at
+    /// the bottom.
+    #[pyo3(signature = (camera, light, config, output=None))]
     fn render<'py>(
         &mut self,
         py: Python<'py>,
         camera: CameraArgs,
         light: LightArgs,
         config: PyRef<'_, PyRenderConfig>,
-    ) -> PyResult<(Bound<'py, PyArray3<f32>>, Bound<'py, PyDict>)> {
+        output: Option<OutputArgs>,
+    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyDict>)> {
         let camera = camera_from(&camera);
         let light = light_from(&light)?;
         let cfg = config.inner;
-        let (w, h) = self.inner.size();
+        let format = output.map_or(Format::PREMULTIPLIED, format_from);
         let inner = &mut *self.inner;
-        let (img, stats) = run_released(py, |stop| inner.render_interruptible(&camera, &light, &cfg, stop))?;
-        let arr = PyArray1::from_vec(py, img).reshape([h as usize, w as usize, 4])?;
-        Ok((arr, stats_dict(py, &stats)?))
+        let (image, stats) = run_released(py, |stop| inner.render_image(&camera, &light, &cfg, format, stop))?;
+        Ok((image_array(py, image)?, stats_dict(py, &stats)?))
     }
 
     /// Replaces the volume by an empty bricked one of shape `dims` in the
@@ -454,19 +458,43 @@ pub fn brick_layout(
     Ok(((0..g.len()).map(|i| g.padded_range(i)).collect(), g.front_to_back(dv(eye))))
 }
 
-/// Premultiplied float RGBA (H, W, 4) to uint8; `straight` un-premultiplies.
+/// (codes, straight, background, top_down): how a frame is returned (`Format`).
+type OutputArgs = (bool, bool, Option<(f32, f32, f32)>, bool);
+
+fn format_from((codes, straight, background, top_down): OutputArgs) -> Format {
+    Format { codes, straight, background: background.map(|(r, g, b)| [r, g, b]), top_down }
+}
+
+/// An image as a (H, W, 4) array of its own (no copy).
+fn image_array<'py>(py: Python<'py>, image: Image) -> PyResult<Bound<'py, PyAny>> {
+    let shape = [image.height, image.width, 4];
+    Ok(match image.pixels {
+        Pixels::Floats(v) => PyArray1::from_vec(py, v).reshape(shape)?.into_any(),
+        Pixels::Codes(v) => PyArray1::from_vec(py, v).reshape(shape)?.into_any(),
+    })
+}
+
+/// Premultiplied float RGBA (H, W, 4), row 0 at the bottom, to uint8
+/// codes: `straight` un-premultiplies, `background` composites over an RGB
+/// colour, `top_down` puts row 0 at the top.
 #[pyfunction]
-#[pyo3(signature = (rgba, straight=true))]
-pub fn quantize<'py>(py: Python<'py>, rgba: PyReadonlyArray3<'py, f32>, straight: bool) -> PyResult<Bound<'py, PyArray3<u8>>> {
+#[pyo3(signature = (rgba, straight=true, background=None, top_down=false))]
+pub fn quantize<'py>(
+    py: Python<'py>,
+    rgba: PyReadonlyArray3<'py, f32>,
+    straight: bool,
+    background: Option<(f32, f32, f32)>,
+    top_down: bool,
+) -> PyResult<Bound<'py, PyAny>> {
     let s = rgba.shape().to_vec();
     if s[2] != 4 {
         return Err(PyValueError::new_err(format!("expected shape (H, W, 4), got {s:?}")));
     }
     let src = rgba.as_slice().map_err(|_| PyValueError::new_err("image must be C-contiguous"))?;
-    let mut out = try_zeroed::<u8>(src.len(), "the 8-bit image").map_err(to_py)?;
+    let mut image = Image::zeroed(s[1], s[0], format_from((true, straight, background, top_down))).map_err(to_py)?;
     // The GIL stays held: the array is borrowed, and Python may write it.
-    to_u8_parallel(src, straight, &mut out);
-    PyArray1::from_vec(py, out).reshape([s[0], s[1], 4])
+    image.target().put_image(src);
+    image_array(py, image)
 }
 
 /// Premultiplied float RGBA (H, W, 4), C-contiguous, made straight in

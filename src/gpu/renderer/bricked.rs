@@ -21,6 +21,7 @@ use crate::gpu::pipeline::{marches_back_to_front, Variant};
 use crate::gpu::plan::PassPlan;
 use crate::gpu::resources::{OccSource, Occupancy, RayState, VolumeGpu};
 use crate::model::Model;
+use crate::output::{Format, Target};
 use crate::occupancy::{MinMaxGrid, SegmentRanges};
 use crate::scene::{Bounds, Camera, Light, RayBasis};
 use crate::volume::{Precision, VolumeView};
@@ -376,6 +377,7 @@ impl GpuRenderer {
         }
         let frame = self.brick_frame.take().ok_or_else(|| Error::InvalidInput("no bricked frame was begun".into()))?;
         let bounds = self.bricks.as_ref().expect("a frame was begun").bounds;
+        let (w, h) = (self.width as usize, self.height as usize);
         let Some((variant, bind_group)) = frame.last else {
             // No brick could show anything.
             out.fill(0.0);
@@ -384,7 +386,7 @@ impl GpuRenderer {
         let params = Params { resolve: 1, ..frame.params };
         let one = PassPlan { passes: 1, pass_steps: 1, max_steps_needed: 0, per_pixel_state: true, planned_samples: 0 };
         self.dispatch(variant, &bind_group, params, one, Ends { first: false, last: true }, None, &mut || false)?;
-        let (truncated_needed, samples) = self.read_image(out)?;
+        let (truncated_needed, samples) = self.read_image(&mut Target::floats(out, w, h, Format::PREMULTIPLIED))?;
         self.depth_ready = frame.cfg.model == Model::Isosurface;
         self.depth_unit = world_unit(&bounds);
         let uniforms = (frame.dispatched as u64 + 1) * std::mem::size_of::<Params>() as u64 + STATS_BYTES;

@@ -4,7 +4,7 @@ use super::{Ends, FrameStats, GpuRenderer, Rect, LEAP_MIN_UNIFORM, SKIP_MIN_EMPT
 use crate::config::{OpacityCorrection, RenderConfig};
 use crate::cpu::Model as CpuModel;
 use crate::gpu::bindings;
-use crate::error::{try_vec, try_zeroed, Error};
+use crate::error::{try_vec, Error};
 use crate::gpu::params::{world_unit, FrameInputs, Params};
 use crate::gpu::pipeline::{dispatch_groups, Layout, Variant};
 use crate::gpu::plan::{plan, PassPlan};
@@ -12,6 +12,7 @@ use crate::gpu::readback::read_buffers;
 use crate::gpu::resources::{readback_buffer, PreintKey, RayState};
 use crate::preintegrate;
 use crate::integrate::max_extinction;
+use crate::output::{Format, Image, Pixels, Target};
 use crate::model::Model;
 use crate::scene::{Camera, Light, Shading};
 
@@ -40,26 +41,29 @@ impl GpuRenderer {
         out: &mut [f32],
         stop: &mut dyn FnMut() -> bool,
     ) -> Result<FrameStats, Error> {
-        self.render_frame(camera, light, cfg, out, false, stop)
+        let (w, h) = (self.width as usize, self.height as usize);
+        if out.len() != w * h * 4 {
+            return Err(Error::InvalidInput(format!("output slice has {} floats, expected {}", out.len(), w * h * 4)));
+        }
+        let mut target = Target::floats(out, w, h, Format::PREMULTIPLIED);
+        self.render_frame(camera, light, cfg, &mut target, false, stop)
     }
 
-    /// `render_into_interruptible`; `blank`: `out` holds zeros already, so
-    /// the native march leaves the pixels whose rays miss the box unwritten
-    /// (a large frame's pages it never touches then cost nothing).
+    /// `render_into_interruptible` into `out`, the frame's size, in its
+    /// format; `blank`: `out` holds what a pixel no ray colours is already,
+    /// so the native march leaves the pixels whose rays miss the box
+    /// unwritten (a large frame's pages it never touches then cost nothing).
     fn render_frame(
         &mut self,
         camera: &Camera,
         light: &Light,
         cfg: &RenderConfig,
-        out: &mut [f32],
+        out: &mut Target,
         blank: bool,
         stop: &mut dyn FnMut() -> bool,
     ) -> Result<FrameStats, Error> {
         self.check_process()?;
-        let n = self.width as usize * self.height as usize * 4;
-        if out.len() != n {
-            return Err(Error::InvalidInput(format!("output slice has {} floats, expected {n}", out.len())));
-        }
+        assert_eq!(out.size(), (self.width as usize, self.height as usize), "the frame's size");
         self.check_ready(cfg)?;
         self.update_occupancy(self.occupancy_source(cfg))?;
         let params = self.params(camera, light, cfg)?;
@@ -68,7 +72,7 @@ impl GpuRenderer {
         if self.skip_empty && self.occupancy.empty_fraction == 1.0 && cfg.model.skips_transparent() {
             // Every sample of every ray would have opacity 0.
             if !blank {
-                out.fill(0.0);
+                out.clear();
             }
             return Ok(self.finish_frame(FrameStats::default(), 0));
         }
@@ -129,7 +133,7 @@ impl GpuRenderer {
         &mut self,
         variant: &Variant,
         params: &Params,
-        out: &mut [f32],
+        out: &Target,
         blank: bool,
         stop: &mut dyn FnMut() -> bool,
     ) -> Result<FrameStats, Error> {
@@ -176,9 +180,10 @@ impl GpuRenderer {
             back_to_front: variant.unbiased && variant.back_to_front,
             majorants: (variant.unbiased && variant.cell_rates && cells).then_some(&occ.majorants[..]),
         };
-        let mut depth = if iso { Some(try_vec(out.len() / 4, f32::INFINITY, "the depth image")?) } else { None };
+        let pixels = self.width as usize * self.height as usize;
+        let mut depth = if iso { Some(try_vec(pixels, f32::INFINITY, "the depth image")?) } else { None };
         // (The depth image starts at infinity, a miss's.)
-        let s = crate::cpu::render(&frame, bytemuck::cast_slice_mut(out), depth.as_deref_mut(), blank, stop)
+        let s = crate::cpu::render(&frame, out, depth.as_deref_mut(), blank, stop)
             .map_err(|_| Error::Interrupted)?;
         if iso {
             self.depth_unit = world_unit(&self.volume.as_ref().expect("checked by native_covers").bounds);
@@ -189,11 +194,14 @@ impl GpuRenderer {
         Ok(self.finish_frame(stats, 0))
     }
 
-    /// Copies the last dispatch's image into `out`; returns the frame's
-    /// statistics (largest step count a truncated ray needed, samples).
-    pub(super) fn read_image(&self, out: &mut [f32]) -> Result<(u32, u64), Error> {
+    /// Copies the last dispatch's image into `out`, in its format, on every
+    /// core: the mapped readback memory is slow to read from one (copying a
+    /// 2048x2048 float image out of it took 25 ms on one core of the H200's
+    /// host, 3 ms on its 16). Returns the frame's statistics (largest step
+    /// count a truncated ray needed, samples).
+    pub(super) fn read_image(&self, out: &mut Target) -> Result<(u32, u64), Error> {
         read_buffers(&self.ctx, &[&self.frame.output.readback, &self.frame.stats_readback], "the image", |data| {
-            copy_on_every_core(out, bytemuck::cast_slice(data[0]));
+            out.put_image(bytemuck::cast_slice(data[0]));
             let w: &[u32] = bytemuck::cast_slice(data[1]);
             (w[0], w[1] as u64 | (w[2] as u64) << 32)
         })
@@ -488,40 +496,24 @@ impl GpuRenderer {
         cfg: &RenderConfig,
         stop: &mut dyn FnMut() -> bool,
     ) -> Result<(Vec<f32>, FrameStats), Error> {
-        let mut out = try_zeroed::<f32>(self.width as usize * self.height as usize * 4, "the image")?;
-        let stats = self.render_frame(camera, light, cfg, &mut out, true, stop)?;
-        Ok((out, stats))
-    }
-}
-
-/// `dst.copy_from_slice(src)` on every core, in runs of 1 MiB or more. The
-/// mapped readback memory is slow to read from one core: copying a
-/// 2048x2048 image (64 MiB) out of it took 25 ms on one core of the H200's
-/// host, 3 ms on its 16 (43 and 7 ms where the image's pages were 4 KiB).
-fn copy_on_every_core(dst: &mut [f32], src: &[f32]) {
-    const MIN_RUN: usize = 1 << 18;
-    let run = dst.len().div_ceil(crate::cores::cores()).max(MIN_RUN);
-    if run >= dst.len() {
-        return dst.copy_from_slice(src);
-    }
-    std::thread::scope(|s| {
-        for (d, c) in dst.chunks_mut(run).zip(src.chunks(run)) {
-            s.spawn(move || d.copy_from_slice(c));
+        let (image, stats) = self.render_image(camera, light, cfg, Format::PREMULTIPLIED, stop)?;
+        match image.pixels {
+            Pixels::Floats(v) => Ok((v, stats)),
+            Pixels::Codes(_) => unreachable!("a float format"),
         }
-    });
-}
+    }
 
-#[cfg(test)]
-mod tests {
-    /// Runs that do not divide the image evenly, on however many cores.
-    #[test]
-    fn every_core_copies_the_whole_image() {
-        let src: Vec<f32> = (0..(3 << 18) + 5).map(|i| i as f32).collect();
-        let mut dst = vec![-1.0; src.len()];
-        super::copy_on_every_core(&mut dst, &src);
-        assert!(dst == src);
-        let mut small = vec![0.0; 3];
-        super::copy_on_every_core(&mut small, &[1.0, 2.0, 3.0]);
-        assert_eq!(small, [1.0, 2.0, 3.0]);
+    /// `render_interruptible` into a new image in `format`.
+    pub fn render_image(
+        &mut self,
+        camera: &Camera,
+        light: &Light,
+        cfg: &RenderConfig,
+        format: Format,
+        stop: &mut dyn FnMut() -> bool,
+    ) -> Result<(Image, FrameStats), Error> {
+        let mut image = Image::zeroed(self.width as usize, self.height as usize, format)?;
+        let stats = self.render_frame(camera, light, cfg, &mut image.target(), format.blank_is_zero(), stop)?;
+        Ok((image, stats))
     }
 }
