@@ -172,18 +172,29 @@ impl Image {
             Pixels::Floats(v) => v.as_mut_ptr() as *mut u8,
             Pixels::Codes(v) => v.as_mut_ptr(),
         };
-        Target { ptr, width: self.width, height: self.height, format: self.format, _image: PhantomData }
+        let kind = if self.format.codes { Kind::Codes } else { Kind::Floats };
+        Target { ptr, width: self.width, height: self.height, format: self.format, kind, _image: PhantomData }
     }
+}
+
+/// What a target's memory holds.
+#[derive(Clone, Copy, PartialEq)]
+enum Kind {
+    Floats,
+    Codes,
+    /// float64 sums of premultiplied frames, row 0 at the bottom.
+    Sums,
 }
 
 /// An image written by several threads, each writing its own pixels: the
 /// pixels are given in the renderer's order and format, and written in the
-/// image's.
+/// image's (or added to its sums).
 pub struct Target<'a> {
     ptr: *mut u8,
     width: usize,
     height: usize,
     format: Format,
+    kind: Kind,
     _image: PhantomData<&'a mut [u8]>,
 }
 
@@ -194,7 +205,23 @@ impl<'a> Target<'a> {
     /// `out` (width * height * 4 floats) in the float format `format`.
     pub fn floats(out: &'a mut [f32], width: usize, height: usize, format: Format) -> Target<'a> {
         assert!(!format.codes && out.len() == width * height * 4, "a float image of width x height");
-        Target { ptr: out.as_mut_ptr() as *mut u8, width, height, format, _image: PhantomData }
+        Target { ptr: out.as_mut_ptr() as *mut u8, width, height, format, kind: Kind::Floats, _image: PhantomData }
+    }
+
+    /// `out` (width * height * 4 float64 sums of premultiplied RGBA, row 0
+    /// at the bottom), to which each frame written adds its pixels: frames
+    /// are accumulated without an image of their own, and pixels no ray
+    /// colours add nothing, so they need not be written.
+    pub fn sums(out: &'a mut [f64], width: usize, height: usize) -> Target<'a> {
+        assert_eq!(out.len(), width * height * 4, "sums of width x height pixels");
+        let (ptr, format) = (out.as_mut_ptr() as *mut u8, Format::PREMULTIPLIED);
+        Target { ptr, width, height, format, kind: Kind::Sums, _image: PhantomData }
+    }
+
+    /// Whether the target already holds what a pixel no ray colours would
+    /// leave, for a target whose memory was zeroed (an image) or that sums.
+    pub fn blank_when_zeroed(&self) -> bool {
+        self.kind == Kind::Sums || self.format.blank_is_zero()
     }
 
     pub fn size(&self) -> (usize, usize) {
@@ -217,18 +244,31 @@ impl<'a> Target<'a> {
         // SAFETY: the pixels lie in the image (asserted), which outlives
         // 'a, and no other thread touches them (the caller's contract).
         unsafe {
-            if self.format.codes {
-                let dst = std::slice::from_raw_parts_mut((self.ptr as *mut [u8; 4]).add(at), src.len());
-                self.format.codes(src, dst);
-            } else {
-                let dst = std::slice::from_raw_parts_mut((self.ptr as *mut [f32; 4]).add(at), src.len());
-                self.format.floats(src, dst);
+            match self.kind {
+                Kind::Codes => {
+                    let dst = std::slice::from_raw_parts_mut((self.ptr as *mut [u8; 4]).add(at), src.len());
+                    self.format.codes(src, dst);
+                }
+                Kind::Floats => {
+                    let dst = std::slice::from_raw_parts_mut((self.ptr as *mut [f32; 4]).add(at), src.len());
+                    self.format.floats(src, dst);
+                }
+                Kind::Sums => {
+                    let dst = std::slice::from_raw_parts_mut((self.ptr as *mut [f64; 4]).add(at), src.len());
+                    for (d, c) in dst.iter_mut().zip(src) {
+                        *d = std::array::from_fn(|k| d[k] + c[k] as f64);
+                    }
+                }
             }
         }
     }
 
-    /// Every pixel as no ray colours it: zeros, or the background.
+    /// Every pixel as no ray colours it: zeros, or the background (sums
+    /// are left as they are: such a pixel adds zero).
     pub fn clear(&mut self) {
+        if self.kind == Kind::Sums {
+            return;
+        }
         let zeros = [[0.0f32; 4]; 64];
         for row in 0..self.height {
             for col in (0..self.width).step_by(zeros.len()) {
@@ -266,7 +306,7 @@ impl<'a> Target<'a> {
 
 #[cfg(test)]
 mod tests {
-    use super::{straighten, straighten_parallel, to_u8, Format, Image, Pixels};
+    use super::{straighten, straighten_parallel, to_u8, Format, Image, Pixels, Target};
 
     /// Every format from a whole image on every core: the pixels of one
     /// core's rule, rows in the asked order, in runs that do not divide evenly.
@@ -302,6 +342,24 @@ mod tests {
                     }
                 }
             }
+        }
+    }
+
+    /// Sums add each frame's pixels in float64, on every core, and a
+    /// cleared frame adds nothing.
+    #[test]
+    fn sums_add_frames_in_float64() {
+        let (w, h) = (257, 300);
+        let a: Vec<f32> = (0..4 * w * h).map(|i| ((i * 7919) % 1021) as f32 / 1000.0 + 1e-9).collect();
+        let b: Vec<f32> = a.iter().map(|v| 0.3 - v / 3.0).collect();
+        let mut sums = vec![0.5f64; 4 * w * h];
+        let mut target = Target::sums(&mut sums, w, h);
+        assert!(target.blank_when_zeroed());
+        target.put_image(&a);
+        target.clear();
+        target.put_image(&b);
+        for (i, s) in sums.iter().enumerate() {
+            assert_eq!(*s, 0.5 + a[i] as f64 + b[i] as f64, "{i}");
         }
     }
 

@@ -29,10 +29,10 @@ def _exact_filtering_on_gpus(request, monkeypatch):
         return
     sampled = VolumeRenderer._render_frame
 
-    def exact(self, size=None, config=None, output=None):
+    def exact(self, size=None, config=None, output=None, sums=None):
         cfg = (self._config_snapshot if config is None else config).copy()
         cfg.exact_filtering = True
-        return sampled(self, size, cfg, output)
+        return sampled(self, size, cfg, output, sums)
 
     monkeypatch.setattr(VolumeRenderer, "_render_frame", exact)
 

@@ -40,6 +40,33 @@ def test_the_mean_of_frames_with_consecutive_seeds(r):
         assert np.array_equal(frame(r, config=other, accumulate=3), mean_of_seeds(r, 0, 3, other.replace(jitter=True)))
 
 
+def test_frames_add_to_the_sums_as_they_are_made_at_a_size_and_in_bricks():
+    """Each frame adds its pixels to float64 sums as it is marched (or
+    copied out of the GPU), at a frame size of its own too; a bricked
+    volume's frames are added after they are composited. Both equal
+    numpy's mean of the frames."""
+    from pyvr import VolumeRenderer
+    from pyvr.camera import Camera
+    from pyvr.lighting import Light
+    from pyvr.transferfunctions import ColorTransferFunction
+
+    vol = Volume(blob((30, 26, 22), width=0.7))
+    for options in ({}, {"brick_shape": (9, 11, 7)}):
+        r = VolumeRenderer(40, 32, config=CFG, light=Light.default(), **options)
+        r.load_volume(vol)
+        r.set_camera(Camera.isometric_view(distance=3.0))
+        r.set_transfer_functions(ColorTransferFunction.from_colormap("viridis"),
+                                 OpacityTransferFunction.peaks([0.5], opacity=0.6, eps=0.03))
+        assert (r.bricks is not None and r.bricks["count"] > 1) == bool(options)
+        for size in (None, (23, 17)):
+            got = frame(r, accumulate=5, size=size)
+            cfg = CFG.replace(unbiased=True)
+            frames = [frame(r, config=cfg.replace(jitter_seed=k), size=size) for k in range(5)]
+            want = (sum(f.astype(np.float64) for f in frames) / 5).astype(np.float32)
+            assert got.shape == want.shape and np.array_equal(got, want), (options, size)
+            assert np.abs(frames[0] - frames[1]).max() > 0.01 and got[..., 3].max() > 0.1
+
+
 def test_noise_falls_as_one_over_sqrt_n(r):
     # Against an independent 256-frame mean: rms(n) ~ sigma * sqrt(1/n + 1/256).
     # (accumulate=1 is the plain frame, not one of these.)

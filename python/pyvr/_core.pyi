@@ -97,6 +97,9 @@ class Renderer:
         self, camera: CameraArgs, light: LightArgs, config: RenderConfig,
         output: Optional[Tuple[bool, bool, Optional[Vec3], bool]] = None,
     ) -> Tuple[npt.NDArray[Any], Dict[str, int]]: ...
+    def accumulate(
+        self, camera: CameraArgs, light: LightArgs, config: RenderConfig, sums: npt.NDArray[np.float64]
+    ) -> Dict[str, int]: ...
     def counters(self) -> Dict[str, int]: ...
     skip_empty: bool
     uniform_runs: bool

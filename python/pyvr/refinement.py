@@ -14,7 +14,7 @@ from typing import Optional
 import numpy as np
 
 from ._numbers import check_count
-from .renderer import UNBIASED_MODELS, output_image
+from .renderer import UNBIASED_MODELS, mean_image, output_image
 
 # The running mean is shown from this many frames on: four unbiased frames
 # have half the noise of one (the full frame stays on show until then).
@@ -74,11 +74,11 @@ class Refinement:
         (or all of them, when fewer are asked for) are in it."""
         cfg = self.renderer.get_config()
         seed = (cfg.jitter_seed + self.count) % 2**32
-        frame = self.renderer.render(dtype=np.float32, premultiplied=True,
-                                     config=cfg.replace(unbiased=True, jitter_seed=seed))
-        self._sum = frame.astype(np.float64) if self._sum is None else self._sum + frame
+        if self._sum is None:
+            self._sum = np.zeros((self.renderer.height, self.renderer.width, 4), np.float64)
+        # The frame's pixels are added to the sums as it is made.
+        self.renderer._render_frame(None, cfg.replace(unbiased=True, jitter_seed=seed), sums=self._sum)
         self.count += 1
         if self.count < min(SHOW_FROM, self.frames):
             return None
-        mean = (self._sum / self.count).astype(np.float32)
-        return output_image(mean, np.dtype(np.uint8), False, None, "upper")
+        return output_image(mean_image(self._sum, self.count), np.dtype(np.uint8), False, None, "upper")

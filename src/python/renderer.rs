@@ -266,6 +266,34 @@ impl PyRenderer {
         Ok((image_array(py, image)?, stats_dict(py, &stats)?))
     }
 
+    /// Renders one frame and adds its premultiplied RGBA to `sums`, a
+    /// C-contiguous float64 (H, W, 4) array of the renderer's size (row 0
+    /// at the bottom), instead of returning it; returns the frame
+    /// statistics. For frames averaged by pyvr itself: the array must not
+    /// be used elsewhere while the frame renders (the GIL is released).
+    #[pyo3(signature = (camera, light, config, sums))]
+    fn accumulate<'py>(
+        &mut self,
+        py: Python<'py>,
+        camera: CameraArgs,
+        light: LightArgs,
+        config: PyRef<'_, PyRenderConfig>,
+        mut sums: PyReadwriteArray3<'py, f64>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let camera = camera_from(&camera);
+        let light = light_from(&light)?;
+        let cfg = config.inner;
+        let (w, h) = self.inner.size();
+        let shape = sums.shape().to_vec();
+        if shape != [h as usize, w as usize, 4] {
+            return Err(PyValueError::new_err(format!("sums must have shape ({h}, {w}, 4), got {shape:?}")));
+        }
+        let sums = sums.as_slice_mut().map_err(|_| PyValueError::new_err("sums must be C-contiguous"))?;
+        let inner = &mut *self.inner;
+        let stats = run_released(py, |stop| inner.accumulate_interruptible(&camera, &light, &cfg, sums, stop))?;
+        stats_dict(py, &stats)
+    }
+
     /// Replaces the volume by an empty bricked one of shape `dims` in the
     /// box (min_bounds, max_bounds), in bricks of `core` voxels with `ghost`
     /// voxels around each; bricks are then uploaded with `set_brick`.

@@ -513,7 +513,27 @@ impl GpuRenderer {
         stop: &mut dyn FnMut() -> bool,
     ) -> Result<(Image, FrameStats), Error> {
         let mut image = Image::zeroed(self.width as usize, self.height as usize, format)?;
-        let stats = self.render_frame(camera, light, cfg, &mut image.target(), format.blank_is_zero(), stop)?;
+        let mut target = image.target();
+        let blank = target.blank_when_zeroed();
+        let stats = self.render_frame(camera, light, cfg, &mut target, blank, stop)?;
         Ok((image, stats))
+    }
+
+    /// `render_interruptible`, adding the frame's premultiplied pixels to
+    /// `sums` (width * height * 4 float64, row 0 at the bottom) instead of
+    /// returning an image: frames averaged for progressive refinement.
+    pub fn accumulate_interruptible(
+        &mut self,
+        camera: &Camera,
+        light: &Light,
+        cfg: &RenderConfig,
+        sums: &mut [f64],
+        stop: &mut dyn FnMut() -> bool,
+    ) -> Result<FrameStats, Error> {
+        let (w, h) = (self.width as usize, self.height as usize);
+        if sums.len() != w * h * 4 {
+            return Err(Error::InvalidInput(format!("sums have {} values, expected {}", sums.len(), w * h * 4)));
+        }
+        self.render_frame(camera, light, cfg, &mut Target::sums(sums, w, h), true, stop)
     }
 }
