@@ -366,13 +366,7 @@ pub unsafe fn track<T: Texels>(
         if stopped & (1 << l) == 0 && (steps[l] as u32) < want {
             stats.truncated_needed = stats.truncated_needed.max(want);
         }
-        let alpha = if emission {
-            0.0
-        } else if trans[l] == 0.0 {
-            1.0
-        } else {
-            crate::integrate::one_minus_exp_neg(tau[l] as f64) as f32
-        };
+        let alpha = super::avx2::ray_alpha(tau[l], trans[l], emission);
         out[l] = [color[0][l] + color_b[0][l], color[1][l] + color_b[1][l], color[2][l] + color_b[2][l], alpha];
     }
     stats
