@@ -1,5 +1,6 @@
 """What a frame costs besides its samples: the pixels whose rays miss the
-volume, and turning the float frame into what `render()` returns.
+volume, and making each pixel what `render()` returns (8-bit codes or
+floats, straight or premultiplied colour).
 
 A 128^3 torus with a narrow opacity band (balanced) seen from an isometric
 camera at distance 3 (the box fills most of the view) and 30 (it covers

@@ -34,11 +34,6 @@ impl Format {
         self.background.is_none()
     }
 
-    /// Bytes a pixel takes.
-    pub fn pixel_bytes(&self) -> usize {
-        if self.codes { 4 } else { 16 }
-    }
-
     /// `src`'s pixels in this format as floats (`codes` is not asked).
     pub fn floats(&self, src: &[[f32; 4]], dst: &mut [[f32; 4]]) {
         match (self.background, self.straight) {
@@ -168,11 +163,12 @@ impl Image {
 
     /// The image as a target the workers write.
     pub fn target(&mut self) -> Target<'_> {
-        let ptr = match &mut self.pixels {
-            Pixels::Floats(v) => v.as_mut_ptr() as *mut u8,
-            Pixels::Codes(v) => v.as_mut_ptr(),
+        // (The kind follows the pixels, whatever the format says.)
+        let (ptr, len, kind) = match &mut self.pixels {
+            Pixels::Floats(v) => (v.as_mut_ptr() as *mut u8, v.len(), Kind::Floats),
+            Pixels::Codes(v) => (v.as_mut_ptr(), v.len(), Kind::Codes),
         };
-        let kind = if self.format.codes { Kind::Codes } else { Kind::Floats };
+        assert_eq!(len, self.width * self.height * 4, "an image of width x height pixels");
         Target { ptr, width: self.width, height: self.height, format: self.format, kind, _image: PhantomData }
     }
 }
