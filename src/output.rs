@@ -100,18 +100,6 @@ pub fn to_u8(rgba: &[f32], straight: bool, out: &mut [u8]) {
     format.codes(bytemuck::cast_slice(rgba), bytemuck::cast_slice_mut(out));
 }
 
-/// Straight colour from premultiplied, in place (`Format::floats`' rule).
-pub fn straighten(rgba: &mut [f32]) {
-    for px in rgba.chunks_exact_mut(4) {
-        let c = straight([px[0], px[1], px[2], px[3]]);
-        // Written only where it changes: a frame's empty pixels may lie in
-        // pages never written (zeroed memory), which a write would fault in.
-        if c.map(f32::to_bits) != [px[0], px[1], px[2], px[3]].map(f32::to_bits) {
-            px[..3].copy_from_slice(&c[..3]);
-        }
-    }
-}
-
 /// The pixels in each core's run, or None where one core does it all
 /// (small frames). One core took 45-51 ms to quantize a 2048x2048 frame on
 /// the 2-core VM, longer than the GPU's frame.
@@ -119,18 +107,6 @@ fn run_pixels(pixels: usize) -> Option<usize> {
     const MIN_PIXELS: usize = 1 << 16;
     let threads = crate::cores::cores().min(pixels / MIN_PIXELS);
     (threads > 1).then(|| pixels.div_ceil(threads))
-}
-
-/// `straighten` on every core, in runs of whole pixels.
-pub fn straighten_parallel(rgba: &mut [f32]) {
-    let Some(run) = run_pixels(rgba.len() / 4) else {
-        return straighten(rgba);
-    };
-    std::thread::scope(|s| {
-        for part in rgba.chunks_mut(4 * run) {
-            s.spawn(move || straighten(part));
-        }
-    });
 }
 
 /// A frame's pixels in their format.
@@ -302,7 +278,7 @@ impl<'a> Target<'a> {
 
 #[cfg(test)]
 mod tests {
-    use super::{straighten, straighten_parallel, to_u8, Format, Image, Pixels, Target};
+    use super::{to_u8, Format, Image, Pixels, Target};
 
     /// Every format from a whole image on every core: the pixels of one
     /// core's rule, rows in the asked order, in runs that do not divide evenly.
@@ -386,23 +362,14 @@ mod tests {
     }
 
     #[test]
-    fn straight_colour_on_every_core_is_that_of_one() {
-        let n: usize = (1 << 18) + 5;
-        let rgba: Vec<f32> = (0..4 * n).map(|i| ((i * 7919) % 1021) as f32 / 900.0 - 0.05).collect();
-        let (mut one, mut all) = (rgba.clone(), rgba);
-        straighten(&mut one);
-        straighten_parallel(&mut all);
-        assert!(one.iter().zip(&all).all(|(a, b)| a.to_bits() == b.to_bits()));
-    }
-
-    #[test]
     fn straightens_clamps_and_keeps_what_has_no_alpha() {
         let nan = f32::NAN;
-        let mut px = [0.25, 0.5, 2.0, 0.5, 0.3, -0.2, -0.0, 0.0, nan, 0.2, 0.1, 0.4, 0.1, 0.2, 0.3, nan];
-        straighten(&mut px);
-        let want = [0.5, 1.0, 1.0, 0.5, 0.3, 0.0, -0.0, 0.0, nan, 0.5, 0.25, 0.4, 0.1, 0.2, 0.3, nan];
-        let bits = |x: &[f32]| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
-        assert_eq!(bits(&px), bits(&want));
+        let px = [[0.25, 0.5, 2.0, 0.5], [0.3, -0.2, -0.0, 0.0], [nan, 0.2, 0.1, 0.4], [0.1, 0.2, 0.3, nan]];
+        let mut got = [[0f32; 4]; 4];
+        Format { straight: true, ..Format::PREMULTIPLIED }.floats(&px, &mut got);
+        let want = [[0.5, 1.0, 1.0, 0.5], [0.3, 0.0, -0.0, 0.0], [nan, 0.5, 0.25, 0.4], [0.1, 0.2, 0.3, nan]];
+        let bits = |x: &[[f32; 4]]| x.as_flattened().iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&got), bits(&want));
     }
 
     #[test]

@@ -251,12 +251,13 @@ def test_core_rejects_bad_arguments_with_python_errors():
         r.render((1, 2), light, args[2])
     img, stats = r.render(*args)
     assert img.shape == (4, 4, 4) and stats["truncated_needed"] == 0
+    straight = (False, True, None, False)
     with pytest.raises(ValueError, match=r"shape \(H, W, 4\)"):
-        _core.quantize(np.zeros((2, 2, 3), np.float32))
-    with pytest.raises(ValueError, match=r"shape \(H, W, 4\)"):
-        _core.straighten(np.zeros((2, 2, 3), np.float32))
+        _core.convert(np.zeros((2, 2, 3), np.float32), straight)
     with pytest.raises(ValueError, match="C-contiguous"):
-        _core.straighten(np.zeros((4, 4, 4), np.float32)[:, ::2])
+        _core.convert(np.zeros((4, 4, 4), np.float32)[:, ::2], straight)
+    with pytest.raises(ValueError, match="length 4"):
+        _core.convert(np.zeros((4, 4, 4), np.float32), (False, True))
     assert _core.colormap_table("nope") is None
 
 
@@ -272,8 +273,9 @@ def test_straight_float_frames_are_numpys_rule_bit_for_bit():
     special = np.array([0.0, -0.0, np.nan, np.inf, -np.inf, 1.0, 1e-45, -1e-45], np.float32)
     img.reshape(-1)[::7] = np.resize(special, img.size)[: img.size][::7]
     want = _straight(img)
-    got = img.copy()
-    _core.straighten(got)
+    before = img.copy()
+    got = _core.convert(img, (False, True, None, False))
+    assert np.array_equal(img.view(np.uint32), before.view(np.uint32)), "the input is left as it is"
     assert np.array_equal(got[..., 3].view(np.uint32), img[..., 3].view(np.uint32)), "alpha is left as it is"
     assert np.array_equal(got[..., :3].view(np.uint32), want.view(np.uint32))
     assert np.isnan(want).any() and (img[..., 3] <= 0).any() and (want == 1.0).any() and (want == 0.0).any()
@@ -310,22 +312,24 @@ def test_frames_are_made_in_the_returned_format_as_numpys_rules_give_it():
             img = np.concatenate([_straight(img), img[..., 3:4]], axis=-1)
         return img[::-1] if origin == "upper" else img
 
-    for tf_shows in (True, False):
+    # Two frames accumulated are made in float64 sums and converted after.
+    for tf_shows, n in ((True, 1), (True, 2), (False, 1)):
         if not tf_shows:
             r.set_transfer_functions(ColorTransferFunction.from_colormap("viridis"),
                                      OpacityTransferFunction([(0.0, 0.0), (1.0, 0.0)]))
-        base = r.render(dtype=np.float32, premultiplied=True)
+        base = r.render(dtype=np.float32, premultiplied=True, accumulate=n)
         assert (base[..., 3].max() > 0.5 and (base[..., 3] == 0).mean() > 0.2) == tf_shows
         for dt in (np.uint8, np.float32):
             for premultiplied in (False, True):
                 for background in (None, bg):
                     for origin in ("lower", "upper"):
-                        got = r.render(dtype=dt, premultiplied=premultiplied, background=background, origin=origin)
+                        got = r.render(dtype=dt, premultiplied=premultiplied, background=background, origin=origin,
+                                       accumulate=n)
                         want = numpys(base, dt, premultiplied, background, origin)
                         assert got.dtype == dt and got.flags.c_contiguous and got.shape == (29, 37, 4)
                         if dt == np.float32:
                             got, want = got.view(np.uint32), want.view(np.uint32)
-                        where = (dt.__name__, premultiplied, background, origin, tf_shows)
+                        where = (dt.__name__, premultiplied, background, origin, tf_shows, n)
                         assert np.array_equal(got, want), where
 
 

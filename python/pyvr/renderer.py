@@ -118,23 +118,20 @@ def _path_cameras(path, n_frames, endpoint):
     return len(cameras), cameras
 
 
+def output_format(dt: np.dtype, premultiplied: bool, bg, origin: str) -> tuple:
+    """``render``'s output options as the engine's (codes, straight,
+    background, top_down)."""
+    return (dt == np.uint8, not premultiplied, bg, origin == "upper")
+
+
 def output_image(img: np.ndarray, dt: np.dtype, premultiplied: bool, bg, origin: str) -> np.ndarray:
-    """A frame's premultiplied float RGBA (changed in place) as ``render``
+    """A frame's premultiplied float RGBA (row 0 at the bottom) as ``render``
     returns it: over ``bg`` if given, uint8 or float32, straight unless
-    ``premultiplied``, rows from the bottom unless ``origin`` is "upper"."""
-    if dt == np.uint8:
-        # Over the background and rows in order in the same pass.
-        return _core.quantize(img, not premultiplied, bg, origin == "upper")
-    if bg is not None:
-        # Premultiplied colour over an opaque background: C + (1 - A) B.
-        img[..., :3] += (1.0 - img[..., 3:4]) * np.asarray(bg, np.float32)
-        img[..., 3] = 1.0
-    if not premultiplied:
-        # _straight's rule in place, on every core.
-        _core.straighten(img)
-    if origin == "upper":
-        img = np.ascontiguousarray(img[::-1])
-    return img
+    ``premultiplied``, rows from the bottom unless ``origin`` is "upper"
+    (the rules by which the engine makes each pixel of a frame it returns)."""
+    if dt == np.float32 and premultiplied and bg is None and origin == "lower":
+        return img
+    return _core.convert(img, output_format(dt, premultiplied, bg, origin))
 
 
 def mean_image(total: np.ndarray, n: int) -> np.ndarray:
@@ -1005,10 +1002,7 @@ class VolumeRenderer:
             img, stats = None, self._engine.accumulate(camera_args, self._light_args, cfg, sums)
         else:
             self._pack_gradients_for(cfg)
-            spec = None
-            if output is not None:
-                dt, premultiplied, bg, origin = output
-                spec = (dt == np.uint8, not premultiplied, bg, origin == "upper")
+            spec = None if output is None else output_format(*output)
             img, stats = self._engine.render(camera_args, self._light_args, cfg, spec)
         self.last_frame_stats = stats
         needed = stats["truncated_needed"]

@@ -40,8 +40,7 @@ fn device_limits(py: Python<'_>) -> PyResult<Bound<'_, pyo3::types::PyDict>> {
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<config::PyRenderConfig>()?;
     m.add_class::<renderer::PyRenderer>()?;
-    m.add_function(wrap_pyfunction!(renderer::quantize, m)?)?;
-    m.add_function(wrap_pyfunction!(renderer::straighten, m)?)?;
+    m.add_function(wrap_pyfunction!(renderer::convert, m)?)?;
     m.add_function(wrap_pyfunction!(renderer::brick_ghost, m)?)?;
     m.add_function(wrap_pyfunction!(renderer::brick_layout, m)?)?;
     m.add_function(wrap_pyfunction!(renderer::integrate_reference, m)?)?;

@@ -5,7 +5,7 @@
 
 use super::config::PyRenderConfig;
 use crate::error::{try_collect, try_zeroed};
-use crate::output::{straighten_parallel, Format, Image, Pixels};
+use crate::output::{Format, Image, Pixels};
 use super::args::integer;
 use super::errors::{guarded, run_released, to_py, to_py_in};
 use crate::gpu::GpuRenderer;
@@ -502,41 +502,20 @@ fn image_array<'py>(py: Python<'py>, image: Image) -> PyResult<Bound<'py, PyAny>
     })
 }
 
-/// Premultiplied float RGBA (H, W, 4), row 0 at the bottom, to uint8
-/// codes: `straight` un-premultiplies, `background` composites over an RGB
-/// colour, `top_down` puts row 0 at the top.
+/// Premultiplied float RGBA (H, W, 4), row 0 at the bottom, C-contiguous,
+/// as a new (H, W, 4) array in the format `output` names (see
+/// `Renderer.render`), on every core.
 #[pyfunction]
-#[pyo3(signature = (rgba, straight=true, background=None, top_down=false))]
-pub fn quantize<'py>(
-    py: Python<'py>,
-    rgba: PyReadonlyArray3<'py, f32>,
-    straight: bool,
-    background: Option<(f32, f32, f32)>,
-    top_down: bool,
-) -> PyResult<Bound<'py, PyAny>> {
+pub fn convert<'py>(py: Python<'py>, rgba: PyReadonlyArray3<'py, f32>, output: OutputArgs) -> PyResult<Bound<'py, PyAny>> {
     let s = rgba.shape().to_vec();
     if s[2] != 4 {
         return Err(PyValueError::new_err(format!("expected shape (H, W, 4), got {s:?}")));
     }
     let src = rgba.as_slice().map_err(|_| PyValueError::new_err("image must be C-contiguous"))?;
-    let mut image = Image::zeroed(s[1], s[0], format_from((true, straight, background, top_down))).map_err(to_py)?;
+    let mut image = Image::zeroed(s[1], s[0], format_from(output)).map_err(to_py)?;
     // The GIL stays held: the array is borrowed, and Python may write it.
     image.target().put_image(src);
     image_array(py, image)
-}
-
-/// Premultiplied float RGBA (H, W, 4), C-contiguous, made straight in
-/// place: colour over alpha where alpha > 0, clipped to [0, 1].
-#[pyfunction]
-pub fn straighten(mut rgba: PyReadwriteArray3<'_, f32>) -> PyResult<()> {
-    let s = rgba.shape().to_vec();
-    if s[2] != 4 {
-        return Err(PyValueError::new_err(format!("expected shape (H, W, 4), got {s:?}")));
-    }
-    let px = rgba.as_slice_mut().map_err(|_| PyValueError::new_err("image must be C-contiguous"))?;
-    // The GIL stays held: the array is borrowed, and Python may read it.
-    straighten_parallel(px);
-    Ok(())
 }
 
 /// The f64 integrator: the same frame as the GPU renders, in double
