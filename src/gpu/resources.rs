@@ -64,7 +64,7 @@ fn cpu_copy(
     bytes: &[u8],
     normals: &mut Option<Vec<[i8; 4]>>,
 ) -> Option<CpuVolume> {
-    if !native || ctx.adapter_info.device_type != wgpu::DeviceType::Cpu || !crate::cpu::available() {
+    if !marches_natively(ctx, native) {
         return None;
     }
     // (The normals were made for the texture: keeping them adds no peak.)
@@ -103,6 +103,12 @@ fn cpu_copy(
         _ => return None,
     };
     Some(CpuVolume { texels, dims, normals: normals.take() })
+}
+
+/// Whether the native march keeps its own texels of a volume: asked for,
+/// and the only adapter is a CPU that runs the march.
+fn marches_natively(ctx: &GpuContext, native: bool) -> bool {
+    native && ctx.adapter_info.device_type == wgpu::DeviceType::Cpu && crate::cpu::available()
 }
 
 /// Subnormal floats to zero (keeping the sign): fields that fall off
@@ -295,7 +301,7 @@ impl VolumeGpu {
         };
         let (format, data) = match vol.normals {
             None => (wgpu::TextureFormat::R16Float, halves),
-            Some(n) => (wgpu::TextureFormat::Rgba16Float, with_normals(&halves, n, f32_to_f16)?),
+            Some(n) => (wgpu::TextureFormat::Rgba16Float, with_normals(&halves, n, f32_to_f16)?.into_flattened()),
         };
         Self::whole_texels(ctx, vol, vol.dims, format, bytemuck::cast_slice(&data), grid, native)
     }
@@ -317,9 +323,15 @@ impl VolumeGpu {
             Some(_) => None,
             None => Some(ctx.texture_with_data("uploading the volume", "volume", extent_of(texels), D3, format, 1, bytes)?),
         };
-        Ok(VolumeGpu {
+        Ok(VolumeGpu { view, cpu, bytes: bytes.len() as u64, ..Self::described(vol, format, grid) })
+    }
+
+    /// A whole volume's description in `format`, with neither texture nor
+    /// texels yet.
+    fn described(vol: &VolumeView, format: wgpu::TextureFormat, grid: MinMaxGrid) -> VolumeGpu {
+        VolumeGpu {
             filterable: true,
-            view,
+            view: None,
             normals: None,
             normals_apart: false,
             normals_in_volume: vol.normals.is_some(),
@@ -327,11 +339,33 @@ impl VolumeGpu {
             format,
             dims: vol.dims,
             bounds: vol.bounds,
-            bytes: bytes.len() as u64,
+            bytes: 0,
             grid,
             stored: ValueMap::IDENTITY,
-            cpu,
-        })
+            cpu: None,
+        }
+    }
+
+    /// `whole_texels` for Rgba32Float texels made here: where the native
+    /// march keeps texels it takes these (their subnormals flushed), not a
+    /// copy (a 256^3 volume's lit texels are 256 MiB).
+    fn whole_rgba32(
+        ctx: &GpuContext,
+        vol: &VolumeView,
+        texels: [usize; 3],
+        mut data: Vec<[f32; 4]>,
+        grid: MinMaxGrid,
+        native: bool,
+    ) -> Result<VolumeGpu, Error> {
+        let format = wgpu::TextureFormat::Rgba32Float;
+        // (Offsets past i32 are the copy's rule too: whole texels of four floats.)
+        if !marches_natively(ctx, native) || 4 * data.len() >= i32::MAX as usize {
+            return Self::whole_texels(ctx, vol, texels, format, bytemuck::cast_slice(&data), grid, false);
+        }
+        let bytes = 16 * data.len() as u64;
+        flush_subnormals(data.as_flattened_mut());
+        let cpu = CpuVolume { texels: Texels::Rgba32Float(data), dims: texels, normals: None };
+        Ok(VolumeGpu { bytes, cpu: Some(cpu), view: None, ..Self::described(vol, format, grid) })
     }
 
     /// Whether float32 values and their normals share one Rgba32Float texel
@@ -367,8 +401,7 @@ impl VolumeGpu {
         native: bool,
     ) -> Result<VolumeGpu, Error> {
         let texels = with_normals(values, normals, |c| c)?;
-        let format = wgpu::TextureFormat::Rgba32Float;
-        Self::whole_texels(ctx, vol, vol.dims, format, bytemuck::cast_slice(&texels), MinMaxGrid::build(vol), native)
+        Self::whole_rgba32(ctx, vol, vol.dims, texels, MinMaxGrid::build(vol), native)
     }
 
     /// Values (float32, or integer codes as the fractions of their range
@@ -397,8 +430,7 @@ impl VolumeGpu {
             Voxels::U8(v) => gradients::bordered_texels(|n| v[n] as f32 / 255.0, vol.dims, spacing),
             Voxels::U16(v) => gradients::bordered_texels(|n| v[n] as f32 / 65535.0, vol.dims, spacing),
         }?;
-        let format = wgpu::TextureFormat::Rgba32Float;
-        let mut gpu = Self::whole_texels(ctx, vol, big, format, bytemuck::cast_slice(&data), grid.clone(), true)?;
+        let mut gpu = Self::whole_rgba32(ctx, vol, big, data, grid.clone(), true)?;
         gpu.normals_in_volume = true;
         gpu.gradients = true;
         Ok(Some(gpu))
@@ -450,13 +482,12 @@ impl VolumeGpu {
 
 /// (value, normal direction) texels: each value followed by its normal's
 /// unit direction, converted by `component`.
-fn with_normals<T: Copy>(values: &[T], normals: &[f32], component: impl Fn(f32) -> T) -> Result<Vec<T>, Error> {
-    let mut texels = try_collect(values.len() * 4, "packing values with normals", std::iter::empty())?;
-    for (&v, c) in values.iter().zip(normals.chunks_exact(3)) {
+fn with_normals<T: Copy>(values: &[T], normals: &[f32], component: impl Fn(f32) -> T) -> Result<Vec<[T; 4]>, Error> {
+    let texels = values.iter().zip(normals.chunks_exact(3)).map(|(&v, c)| {
         let u = unit_direction([c[0], c[1], c[2]]);
-        texels.extend_from_slice(&[v, component(u[0]), component(u[1]), component(u[2])]);
-    }
-    Ok(texels)
+        [v, component(u[0]), component(u[1]), component(u[2])]
+    });
+    try_collect(values.len(), "packing values with normals", texels)
 }
 
 /// numpy's last axis is the fastest: it becomes the texture's x.
