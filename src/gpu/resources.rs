@@ -207,8 +207,8 @@ impl VolumeGpu {
                 (wgpu::TextureFormat::R32Float, &converted)
             }
             Voxels::F32(v) => {
-                // (A fold, not `any`: it stops early for nothing in a clean
-                // volume, and without the early exit it is vectorised.)
+                // (A fold, not `any`: a clean volume is read to its end
+                // either way, and without an early exit the loop is vectorised.)
                 if v.iter().fold(false, |a, x| a | x.is_infinite()) {
                     let bytes = v.iter().flat_map(|&x| sanitize(x).to_ne_bytes());
                     converted = try_collect(v.len() * 4, "converting the volume", bytes)?;
