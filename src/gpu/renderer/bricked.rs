@@ -371,13 +371,9 @@ impl GpuRenderer {
     /// ray's state (colour, optical depth) or (value, 1 if any sample, -, -).
     pub fn end_bricks(&mut self, out: &mut [f32]) -> Result<FrameStats, Error> {
         self.check_process()?;
-        let n = self.width as usize * self.height as usize * 4;
-        if out.len() != n {
-            return Err(Error::InvalidInput(format!("output slice has {} floats, expected {n}", out.len())));
-        }
+        let (w, h) = self.whole_frame(out.len(), "output slice")?;
         let frame = self.brick_frame.take().ok_or_else(|| Error::InvalidInput("no bricked frame was begun".into()))?;
         let bounds = self.bricks.as_ref().expect("a frame was begun").bounds;
-        let (w, h) = (self.width as usize, self.height as usize);
         let Some((variant, bind_group)) = frame.last else {
             // No brick could show anything.
             out.fill(0.0);

@@ -41,10 +41,7 @@ impl GpuRenderer {
         out: &mut [f32],
         stop: &mut dyn FnMut() -> bool,
     ) -> Result<FrameStats, Error> {
-        let (w, h) = (self.width as usize, self.height as usize);
-        if out.len() != w * h * 4 {
-            return Err(Error::InvalidInput(format!("output slice has {} floats, expected {}", out.len(), w * h * 4)));
-        }
+        let (w, h) = self.whole_frame(out.len(), "output slice")?;
         let mut target = Target::floats(out, w, h, Format::PREMULTIPLIED);
         self.render_frame(camera, light, cfg, &mut target, false, stop)
     }
@@ -205,6 +202,16 @@ impl GpuRenderer {
             let w: &[u32] = bytemuck::cast_slice(data[1]);
             (w[0], w[1] as u64 | (w[2] as u64) << 32)
         })
+    }
+
+    /// The frame's (width, height), where `len` values are its RGBA; else
+    /// an error naming `what`.
+    pub(super) fn whole_frame(&self, len: usize, what: &str) -> Result<(usize, usize), Error> {
+        let (w, h) = (self.width as usize, self.height as usize);
+        if len != w * h * 4 {
+            return Err(Error::InvalidInput(format!("{what} has {len} values, expected {} ({w} x {h} x 4)", w * h * 4)));
+        }
+        Ok((w, h))
     }
 
     fn check_ready(&self, cfg: &RenderConfig) -> Result<(), Error> {
@@ -530,10 +537,7 @@ impl GpuRenderer {
         sums: &mut [f64],
         stop: &mut dyn FnMut() -> bool,
     ) -> Result<FrameStats, Error> {
-        let (w, h) = (self.width as usize, self.height as usize);
-        if sums.len() != w * h * 4 {
-            return Err(Error::InvalidInput(format!("sums have {} values, expected {}", sums.len(), w * h * 4)));
-        }
+        let (w, h) = self.whole_frame(sums.len(), "sums")?;
         self.render_frame(camera, light, cfg, &mut Target::sums(sums, w, h), true, stop)
     }
 }
