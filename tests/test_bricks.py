@@ -13,6 +13,7 @@ import pytest
 import pyvr
 from pyvr import RenderConfig, VolumeRenderer
 from pyvr.camera import Camera
+from pyvr.renderer import device_limits
 from pyvr.transferfunctions import ColorTransferFunction, OpacityTransferFunction
 from pyvr.volume import Volume
 
@@ -26,13 +27,13 @@ def scene_data():
     return np.ascontiguousarray(d[:, :33, :29])
 
 
-def renderer(**kw):
+def renderer(native=False, **kw):
     r = VolumeRenderer(64, 56, config=RenderConfig.balanced(), **kw)
-    # Bricked frames are the shader's: so is the single-texture frame they
-    # must equal to 0.05 level in straight colour, which f32 rounding
-    # changes by more where alpha is ~1e-10 (the native march's agreement
-    # with the shader is tests/test_native_march.py's).
-    r.native_march = False
+    # Both frames of a comparison run on one engine: the single-texture
+    # frame a bricked one must equal to 0.05 level in straight colour, which
+    # f32 rounding changes by more where alpha is ~1e-10 (the native march's
+    # agreement with the shader is tests/test_native_march.py's).
+    r.native_march = native
     r.set_transfer_functions(ColorTransferFunction.from_colormap("viridis"), OpacityTransferFunction.linear(0.0, 0.5))
     r.set_camera(Camera.from_spherical(np.zeros(3), 0.7, 0.4, 0.0, 3.0))
     return r
@@ -98,6 +99,62 @@ def test_bricked_frame_equals_single_texture(pair, name):
             hit = np.isfinite(da)
             assert hit.sum() > 100 and np.array_equal(hit, np.isfinite(db))
             assert np.abs(da[hit] - db[hit]).max() < 1e-4
+
+
+# The frames the native march renders brick after brick where the only
+# adapter is a CPU (elsewhere the shader renders them, and they must match all the same).
+NATIVE_CONFIGS = {
+    "emission_absorption": {},
+    "back_to_front": {"order": "back_to_front"},
+    "jitter_early_stop": {"jitter": True, "opacity_threshold": 0.7},
+    "pre_integrated": {"pre_integrated": True},
+    "refined": {"pre_integrated": True, "refine": 8},
+    "power_correction": {"opacity_correction": "power"},
+    "absorption": {"model": "absorption"},
+    "emission": {"model": "emission"},
+    "truncated": {"max_steps": 40, "early_ray_termination": False},
+    "mip": {"model": "mip"},
+    "average": {"model": "average"},
+    "mip_truncated": {"model": "mip", "max_steps": 40},
+}
+
+
+@pytest.fixture(scope="module")
+def native_pair():
+    vol = Volume(data=scene_data(), min_bounds=BOX[0], max_bounds=BOX[1])
+    whole, bricked = renderer(native=True), renderer(native=True, brick_shape=(9, 11, 7))
+    whole.load_volume(vol)
+    bricked.load_volume(vol)
+    return whole, bricked
+
+
+@pytest.mark.parametrize("name", sorted(NATIVE_CONFIGS))
+def test_native_bricked_frame_equals_single_texture(native_pair, name):
+    # Each ray's state (colour, optical depth, whether it stopped) passes
+    # from brick to brick in memory: a segment marched twice or skipped, or
+    # a ray marched on after it stopped, costs whole levels. Premultiplied:
+    # refined frames pick their segments from each brick's own slopes, a
+    # different choice that moves the colour of pixels of alpha ~1e-3 by
+    # 0.02 level, which their straight colour magnifies (on the shader too).
+    whole, bricked = native_pair
+    engine = "native" if device_limits()["native_march"] else "gpu"
+    cfg = config(**NATIVE_CONFIGS[name])
+    outside = Camera.from_spherical(np.zeros(3), 0.7, 0.4, 0.0, 3.0)
+    inside = Camera(target=np.array([-1.0, 0.2, 0.1]), azimuth=0.0, elevation=0.0, roll=0.0, distance=0.9)
+    for cam in (outside, inside):
+        whole.set_camera(cam)
+        bricked.set_camera(cam)
+        a = whole.render(dtype=np.float32, premultiplied=True, config=cfg)
+        want = whole.last_frame_stats
+        b = bricked.render(dtype=np.float32, premultiplied=True, config=cfg)
+        got = bricked.last_frame_stats
+        assert got["engine"] == want["engine"] == engine
+        if cam is outside:
+            assert a.max() > 0.05, "the scene must show something"
+        assert np.abs(a - b).max() < TOL, f"{name}: max difference {np.abs(a - b).max() / LEVEL:.4f} levels"
+        # A ray cut short by max_steps is reported by the brick holding its last segment.
+        assert got["truncated_needed"] == want["truncated_needed"]
+        assert (got["truncated_needed"] > 40) == name.endswith("truncated")
 
 
 def test_bricked_unbiased_frames_with_cell_rates_have_the_same_mean(pair):
@@ -210,8 +267,9 @@ def test_dask_and_xarray_arrays_render_like_numpy(reference):
     assert np.abs(r2.render(dtype=np.float32) - want).max() < TOL
 
 
+@pytest.mark.parametrize("native", [False, True])
 @pytest.mark.parametrize("kind", ["normals", "float16", "float16_normals", "uint8", "uint16_value_range"])
-def test_stored_formats_and_normals_brick_like_one_texture(kind, tmp_path):
+def test_stored_formats_and_normals_brick_like_one_texture(kind, native, tmp_path):
     data = scene_data()
     kw = {}
     precision = "float32"
@@ -226,9 +284,10 @@ def test_stored_formats_and_normals_brick_like_one_texture(kind, tmp_path):
         kw["value_range"] = (0.0, 4000.0)
     vol = Volume(data=data, min_bounds=BOX[0], max_bounds=BOX[1], **kw)
     images = []
-    for r in (renderer(), renderer(brick_shape=(12, 10, 9))):
+    for r in (renderer(native), renderer(native, brick_shape=(12, 10, 9))):
         r.load_volume(vol, precision=precision)
         images.append(r.render(dtype=np.float32, premultiplied=True))
+        assert r.last_frame_stats["engine"] == ("native" if native and device_limits()["native_march"] else "gpu")
     assert images[0][..., 3].max() > 0.2
     assert np.abs(images[0] - images[1]).max() < TOL
     if "normals" in kind:
@@ -236,7 +295,7 @@ def test_stored_formats_and_normals_brick_like_one_texture(kind, tmp_path):
         path = tmp_path / "n.raw"
         kw["normals"].astype(np.float32).tofile(path)
         mm = np.memmap(path, dtype=np.float32, mode="r", shape=kw["normals"].shape)
-        r = renderer(brick_shape=(12, 10, 9))
+        r = renderer(native, brick_shape=(12, 10, 9))
         r.load_volume(Volume(data=data, normals=mm, min_bounds=BOX[0], max_bounds=BOX[1]), precision=precision)
         assert np.abs(r.render(dtype=np.float32, premultiplied=True) - images[0]).max() < TOL
 
@@ -295,9 +354,10 @@ def test_bricks_skipped_under_one_table_come_back_under_the_next():
     assert a[..., 3].max() > 0.2
 
 
+@pytest.mark.parametrize("native", [False, True])
 @pytest.mark.parametrize("order", ["front_to_back", "back_to_front"])
 @pytest.mark.parametrize("pre", [False, True])
-def test_sparse_bricks_pass_every_ray_on(order, pre):
+def test_sparse_bricks_pass_every_ray_on(order, pre, native):
     # Bricks of 24^3 hold 3-4 occupancy cells a side; two small blobs, one
     # in each of two bricks a ray crosses in turn, leave most of each brick
     # empty, so rays leap inside bricks and leave them past their last
@@ -307,7 +367,7 @@ def test_sparse_bricks_pass_every_ray_on(order, pre):
     d[4:12, 4:12, 4:12] = 0.8
     d[50:58, 50:58, 50:58] = 0.6
     box = (np.full(3, -1.0, np.float32), np.full(3, 1.0, np.float32))
-    whole, bricked = renderer(), renderer(brick_shape=(24, 24, 24))
+    whole, bricked = renderer(native), renderer(native, brick_shape=(24, 24, 24))
     cfg = RenderConfig(step_size=0.01, max_steps=400, early_ray_termination=False, order=order, pre_integrated=pre)
     for r in (whole, bricked):
         r.load_volume(Volume(data=d, min_bounds=box[0], max_bounds=box[1]))
@@ -317,4 +377,27 @@ def test_sparse_bricks_pass_every_ray_on(order, pre):
     assert bricked.bricks["count"] == 27
     # Both blobs on the diagonal: some rays cross both.
     assert a[..., 3].max() > 0.5
+    assert np.abs(a - b).max() < TOL, np.abs(a - b).max() / LEVEL
+
+
+@pytest.mark.parametrize("native", [False, True])
+def test_rays_stopped_in_one_brick_stay_stopped(native):
+    # Rays stop early in the nearer blob with most of their light left
+    # (threshold 0.2): marched on in the farther blob's brick, even for one
+    # segment, they would take up its colour.
+    d = np.zeros((64, 64, 64), np.float32)
+    d[4:20, 4:20, 4:20] = 0.8
+    d[44:60, 44:60, 44:60] = 0.6
+    box = (np.full(3, -1.0, np.float32), np.full(3, 1.0, np.float32))
+    whole, bricked = renderer(native), renderer(native, brick_shape=(24, 24, 24))
+    cfg = RenderConfig(step_size=0.01, opacity_threshold=0.2)
+    for r in (whole, bricked):
+        r.load_volume(Volume(data=d, min_bounds=box[0], max_bounds=box[1]))
+        r.set_camera(Camera.from_spherical(np.zeros(3), np.pi / 4, np.arcsin(1 / np.sqrt(3)), 0.0, 3.0))
+        r.set_config(cfg)
+        r.set_transfer_functions(ColorTransferFunction.from_colormap("viridis"), OpacityTransferFunction.linear(0.0, 1.0))
+    a, b = whole.render(dtype=np.float32, premultiplied=True), bricked.render(dtype=np.float32, premultiplied=True)
+    assert bricked.last_frame_stats["engine"] == ("native" if native and device_limits()["native_march"] else "gpu")
+    stopped = (a[..., 3] >= 0.2) & (a[..., 3] < 0.5)
+    assert stopped.sum() > 100, stopped.sum()
     assert np.abs(a - b).max() < TOL, np.abs(a - b).max() / LEVEL

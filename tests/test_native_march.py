@@ -390,23 +390,30 @@ def test_native_single_scattering_matches_the_shader(kind):
             assert np.abs(unshadowed - native[0]).max() > 10 * LEVEL
 
 
-def test_frames_the_native_march_does_not_cover_stay_on_the_shader():
-    # A volume in bricks takes several textures (the native march reads
-    # one); the same volume in one texture, lit from normals stored apart,
-    # is native.
+@pytest.mark.parametrize("model", ["emission_absorption", "mip", "isosurface", "unbiased"])
+def test_bricked_frames_the_native_march_does_not_cover_stay_on_the_shader(model):
+    # A volume in bricks takes several textures, which the native march
+    # reads one after another for emission-absorption and the projections
+    # (here lit from normals stored apart); the isosurface and unbiased
+    # frames of bricks stay on the shader. Each matches the single texture.
     d = sphere_pair()
     vol = Volume(np.round(d * 255).astype(np.uint8), compute_normal_volume(d), *BOX)
     lit = Light.directional([-0.6, -0.3, -0.8], ambient=0.25, diffuse=0.75)
+    cfg = RenderConfig.balanced().replace(model="emission_absorption" if model == "unbiased" else model,
+                                          unbiased=model == "unbiased", iso_value=0.45)
     frames = {}
     for bricks in ((9, 11, 7), None):
-        r = VolumeRenderer(72, 64, light=lit, brick_shape=bricks)
+        r = VolumeRenderer(72, 64, light=lit, brick_shape=bricks, config=cfg)
         r.load_volume(vol, precision="float32")
         r.set_transfer_functions(ColorTransferFunction.from_colormap("viridis"),
                                  OpacityTransferFunction.linear(0.0, 0.4))
         r.native_march = True
         frames[bricks is None] = r.render(dtype=np.float32, premultiplied=True), r.last_frame_stats["engine"]
-    assert frames[False][1] == "gpu" and frames[True][1] == "native"
-    assert np.abs(frames[False][0] - frames[True][0]).max() < 0.25 * LEVEL
+    native = model in ("emission_absorption", "mip")
+    assert frames[False][1] == ("native" if native else "gpu") and frames[True][1] == "native"
+    assert frames[True][0][..., 3].max() > 0.3
+    if model != "unbiased":  # (each engine draws its own points)
+        assert np.abs(frames[False][0] - frames[True][0]).max() < 0.25 * LEVEL
 
 
 @pytest.mark.parametrize("kind", ["normals_fixed16", "normals_float32", "normals_uint8", "gradients"])

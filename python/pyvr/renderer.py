@@ -882,15 +882,16 @@ class VolumeRenderer:
         unlit or lit from the normals (or gradients) the volume's texels
         hold or from the values' central differences, from float32,
         float16, fixed16, uint8 or uint16 storage in one texture; the
-        projections and the isosurface; 1.25x (float32) and 1.7x (fixed16)
+        projections and the isosurface; bricked volumes' emission-absorption,
+        absorption and emission frames, brick after brick; 1.25x (float32) and 1.7x (fixed16)
         the shader's speed per sample on the benchmark scene on a 2-core
         AMD EPYC (docs/speed.md).
         Images match the shader's within 0.25 level
         (measured: 0.0004 on most scenes); ``last_frame_stats["engine"]``
         says which ran ("native" or "gpu"). It keeps a volume's texels in
-        memory itself, and the shader's texture is made from them only when
-        a frame first runs on the shader (none of bricks, which stay on the
-        shader; docs/speed.md, "The native march")."""
+        memory itself (each brick's too), and the shader's texture is made
+        from them only when a frame first runs on the shader (docs/speed.md,
+        "The native march")."""
         return self._engine.native_march
 
     @native_march.setter

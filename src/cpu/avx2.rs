@@ -704,6 +704,10 @@ pub(super) fn corners(u: &[__m256; 3], hi: &[__m256i; 3], stride: &[__m256i; 3])
 }
 
 /// Pixels col0..col0 + 8 of `row` (those without a ray stay transparent).
+/// In a brick's march (`stopped` given: the lanes' rays that stopped in an
+/// earlier brick), `out` holds each ray's state (premultiplied colour and
+/// optical depth) from the bricks before, and gets it back with this
+/// brick's segments added; the lanes whose rays stop here join `stopped`.
 ///
 /// Stops early (its pixels then are garbage) once `halt` is set.
 ///
@@ -721,6 +725,7 @@ pub unsafe fn march<T: Texels>(
     row: u32,
     out: &mut [[f32; 4]; TILE],
     halt: &AtomicBool,
+    mut stopped_before: Option<&mut u8>,
 ) -> Stats {
     let p = f.params;
     let dims = f.volume.dims;
@@ -733,6 +738,7 @@ pub unsafe fn march<T: Texels>(
     );
     let prefetch = prefetches(&rays, &per, T::UNIT_BYTES * T::PER_TEXEL, dims);
     let (shift, n, limit) = (rays.shift, rays.n, rays.hi);
+    let cap = if p.bricked == 1 { limit } else { n };
     let mut i = rays.lo;
 
     let (zero, one) = (_mm256_setzero_ps(), _mm256_set1_ps(1.0));
@@ -765,6 +771,20 @@ pub unsafe fn march<T: Texels>(
     let mut stopped = zero;
     let (mut color, mut color_b) = ([zero; 3], [zero; 3]);
     let (mut tau, mut tau_b, mut trans) = (zero, zero, one);
+    if let Some(before) = stopped_before.as_deref() {
+        // The rays go on from their state (compositing.wgsl `start_integration`).
+        let bits = _mm256_set1_epi32(*before as i32);
+        let lane_bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+        let done = _mm256_cmpeq_epi32(_mm256_and_si256(bits, lane_bit), lane_bit);
+        active = _mm256_andnot_ps(as_ps(done), active);
+        let column = |c: usize| _mm256_loadu_ps(std::array::from_fn::<f32, 8, _>(|l| out[l][c]).as_ptr());
+        color = std::array::from_fn(column);
+        tau = _mm256_and_ps(column(3), rays.hit);
+        color = color.map(|c| _mm256_and_ps(c, rays.hit));
+        if f.model != Model::Emission {
+            trans = exp_nonpositive(_mm256_sub_ps(zero, tau));
+        }
+    }
     let (mut taken, mut blocks) = (zi, zi);
     let emission = f.model == Model::Emission;
     let emits = f.model != Model::Absorption;
@@ -1037,7 +1057,8 @@ pub unsafe fn march<T: Texels>(
                     _mm256_add_ps(shift, _mm256_set1_ps(1e-3)),
                 ))
             };
-            let kf = _mm256_min_ps(_mm256_max_ps(kf, lowest), _mm256_cvtepi32_ps(n));
+            // A brick's runs end with its window (compositing.wgsl `whole_segments`, `segment_past`).
+            let kf = _mm256_min_ps(_mm256_max_ps(kf, lowest), _mm256_cvtepi32_ps(cap));
             next = _mm256_cvttps_epi32(kf);
         }
         // A full pre-integrated segment fetches its far boundary, or first
@@ -1296,6 +1317,24 @@ pub unsafe fn march<T: Texels>(
     _mm256_storeu_ps(lanes_out[6].as_mut_ptr(), rays.needed);
     let hits = _mm256_movemask_ps(rays.hit);
     let mut stats = Stats::default();
+    if let Some(before) = stopped_before.as_deref_mut() {
+        let earlier = *before;
+        let (mut lo, mut hi) = ([0i32; 8], [0i32; 8]);
+        _mm256_storeu_si256(lo.as_mut_ptr() as *mut __m256i, rays.lo);
+        _mm256_storeu_si256(hi.as_mut_ptr() as *mut __m256i, rays.hi);
+        for l in (0..TILE).filter(|l| hits & (1 << l) != 0 && earlier & (1 << l) == 0) {
+            stats.samples += counts[l] as u64;
+            let was_stopped = lanes_out[5][l].to_bits() != 0;
+            let needed = lanes_out[6][l] as u32;
+            // Reported by the brick holding the ray's last segment.
+            if !was_stopped && lo[l] < hi[l] && hi[l] == steps_n[l] && (steps_n[l] as u32) < needed {
+                stats.truncated_needed = stats.truncated_needed.max(needed);
+            }
+            out[l] = [lanes_out[0][l], lanes_out[1][l], lanes_out[2][l], lanes_out[3][l]];
+            *before |= (was_stopped as u8) << l;
+        }
+        return stats;
+    }
     for l in 0..TILE {
         if hits & (1 << l) == 0 {
             out[l] = [0.0; 4];

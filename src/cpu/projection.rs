@@ -13,6 +13,11 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Pixels col0..col0 + 8 of `row` of a projection (`f.model` is Mip, MinIp
 /// or Average); stops early (its pixels then are garbage) once `halt` is set.
+/// In a brick's march (`stopped` given, as `super::avx2::march` takes it)
+/// `out` holds each ray's state before and after: (the maximum or minimum,
+/// 1 where a value was read) or (the sum of value times length, the length).
+/// A brick's maximum that reaches 1 (minimum 0) stops its ray as in one
+/// texture.
 ///
 /// # Safety
 /// Needs AVX2, FMA and F16C, and the texels followed by the padding their reads
@@ -25,6 +30,7 @@ pub unsafe fn project<T: Texels>(
     row: u32,
     out: &mut [[f32; 4]; TILE],
     halt: &AtomicBool,
+    mut stopped_before: Option<&mut u8>,
 ) -> Stats {
     let p = f.params;
     let dims = f.volume.dims;
@@ -54,6 +60,19 @@ pub unsafe fn project<T: Texels>(
     let (mut sum, mut length) = (zero, zero);
     let mut taken = zi;
     let mut stopped = zero;
+    if let Some(before) = stopped_before.as_deref() {
+        // The rays go on from their state (projections.wgsl `march_project`).
+        let lane_bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+        let done = _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(*before as i32), lane_bit), lane_bit);
+        going = _mm256_andnot_ps(as_ps(done), going);
+        let column = |c: usize| _mm256_and_ps(_mm256_loadu_ps(std::array::from_fn::<f32, 8, _>(|l| out[l][c]).as_ptr()), rays.hit);
+        if f.model == Model::Average {
+            (sum, length) = (column(0), column(1));
+        } else {
+            best = column(0);
+            seen = _mm256_cmp_ps::<_CMP_GT_OQ>(column(1), zero);
+        }
+    }
     let mut steps = 0u32;
     while _mm256_movemask_ps(_mm256_andnot_ps(stopped, going)) != 0 {
         let active = _mm256_andnot_ps(stopped, going);
@@ -95,6 +114,25 @@ pub unsafe fn project<T: Texels>(
     let (counts, steps_n) = (int_lanes(taken), int_lanes(rays.n));
     let hits = _mm256_movemask_ps(rays.hit);
     let mut stats = Stats::default();
+    if let Some(before) = stopped_before.as_deref_mut() {
+        let earlier = *before;
+        let (lo, hi) = (int_lanes(rays.lo), int_lanes(rays.hi));
+        for l in (0..TILE).filter(|l| hits & (1 << l) != 0 && earlier & (1 << l) == 0) {
+            stats.samples += counts[l] as u64;
+            let was_stopped = stopped[l].to_bits() != 0;
+            let needed = needed[l] as u32;
+            // Reported by the brick holding the ray's last segment.
+            if !was_stopped && lo[l] < hi[l] && hi[l] == steps_n[l] && (steps_n[l] as u32) < needed {
+                stats.truncated_needed = stats.truncated_needed.max(needed);
+            }
+            out[l] = match f.model {
+                Model::Average => [sum[l], length[l], 0.0, 0.0],
+                _ => [best[l], if seen[l].to_bits() != 0 { 1.0 } else { 0.0 }, 0.0, 0.0],
+            };
+            *before |= (was_stopped as u8) << l;
+        }
+        return stats;
+    }
     for l in 0..TILE {
         out[l] = [0.0; 4];
         if hits & (1 << l) == 0 {

@@ -102,7 +102,18 @@ pub unsafe fn rays(frame: &Frame, col0: u32, row: u32) -> Rays {
     let needed_i = _mm256_cvttps_epi32(_mm256_min_ps(_mm256_max_ps(needed, zero), set(super::MAX_STEPS as f32)));
     let hit_i = _mm256_castps_si256(hit);
     let n = _mm256_and_si256(_mm256_min_epi32(needed_i, _mm256_set1_epi32(p.max_steps as i32)), hit_i);
-    let (lo, hi) = if frame.skip_empty && p.bricked != 1 && p.occupied_hi[3] == 1.0 {
+    let (lo, hi) = if p.bricked == 1 {
+        let (lo, hi) = brick_window(p, &d, t0, t1, shift, n);
+        if frame.skip_empty && p.occupied_hi[3] == 1.0 {
+            // Within the brick, only the window of its occupied cells.
+            let (olo, ohi) = occupied_window(frame, &d, t0, chord, shift, n);
+            let (lo, hi) = (_mm256_max_epi32(lo, olo), _mm256_min_epi32(hi, ohi));
+            let empty = _mm256_cmpgt_epi32(_mm256_add_epi32(lo, _mm256_set1_epi32(1)), hi);
+            (_mm256_andnot_si256(empty, lo), _mm256_andnot_si256(empty, hi))
+        } else {
+            (lo, hi)
+        }
+    } else if frame.skip_empty && p.occupied_hi[3] == 1.0 {
         occupied_window(frame, &d, t0, chord, shift, n)
     } else {
         (_mm256_setzero_si256(), n)
@@ -119,6 +130,41 @@ pub unsafe fn rays(frame: &Frame, col0: u32, row: u32) -> Rays {
         hi: _mm256_and_si256(hi, hit_i),
         hit,
     }
+}
+
+/// main.wgsl `brick_window` (`super::Ray::brick_window`): the segments
+/// whose nominal midpoints lie in the brick's core box, from the ray's
+/// entry `t0` and exit `t1`; (0, 0) where there are none.
+#[inline]
+#[target_feature(enable = "avx2,fma,f16c")]
+fn brick_window(p: &crate::gpu::params::Params, d: &[__m256; 3], t0: __m256, t1: __m256, shift: __m256, n: __m256i) -> (__m256i, __m256i) {
+    let set = _mm256_set1_ps;
+    let zero = _mm256_setzero_ps();
+    let (mut a0, mut a1, mut outside) = (t0, t1, zero);
+    for a in 0..3 {
+        let o = set(p.cam_pos[a]);
+        let (lo, hi) = (set(p.core_lo[a]), set(p.core_hi[a]));
+        let flat = _mm256_cmp_ps::<_CMP_EQ_OQ>(d[a], zero);
+        let beyond = _mm256_or_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(o, lo), _mm256_cmp_ps::<_CMP_GE_OQ>(o, hi));
+        outside = _mm256_or_ps(outside, _mm256_and_ps(flat, beyond));
+        let inv = _mm256_div_ps(set(1.0), d[a]);
+        let ta = _mm256_mul_ps(_mm256_sub_ps(lo, o), inv);
+        let tb = _mm256_mul_ps(_mm256_sub_ps(hi, o), inv);
+        a0 = _mm256_blendv_ps(_mm256_max_ps(_mm256_min_ps(ta, tb), a0), a0, flat);
+        a1 = _mm256_blendv_ps(_mm256_min_ps(_mm256_max_ps(ta, tb), a1), a1, flat);
+    }
+    outside = _mm256_or_ps(outside, _mm256_cmp_ps::<_CMP_NGT_UQ>(a1, a0));
+    let nf = _mm256_cvtepi32_ps(n);
+    // main.wgsl `segment_at`, clamped to the ray's n.
+    let segment_at = |t: __m256| {
+        let k = _mm256_ceil_ps(_mm256_sub_ps(_mm256_sub_ps(_mm256_div_ps(_mm256_sub_ps(t, t0), set(p.step_size)), shift), set(0.5)));
+        _mm256_cvttps_epi32(_mm256_min_ps(_mm256_max_ps(k, zero), nf))
+    };
+    let lo = _mm256_and_si256(segment_at(a0), _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GT_OQ>(a0, t0)));
+    let hi = _mm256_blendv_epi8(n, segment_at(a1), _mm256_castps_si256(_mm256_cmp_ps::<_CMP_LT_OQ>(a1, t1)));
+    // No segments here: the ray waits for its other bricks.
+    let empty = _mm256_or_si256(_mm256_castps_si256(outside), _mm256_cmpgt_epi32(_mm256_add_epi32(lo, _mm256_set1_epi32(1)), hi));
+    (_mm256_andnot_si256(empty, lo), _mm256_andnot_si256(empty, hi))
 }
 
 /// skipping.wgsl `occupied_window` (`super::Ray::occupied_window`).
@@ -186,8 +232,8 @@ mod tests {
 
     /// Every lane equals the scalar rule's ray bit for bit, over cameras
     /// outside, inside and grazing the box, an axis-aligned one whose middle
-    /// column's rays are parallel to two faces, crops, jitter, truncation
-    /// and occupied windows.
+    /// column's rays are parallel to two faces, crops, jitter, truncation,
+    /// occupied windows and bricks' windows.
     #[test]
     fn lanes_are_the_scalar_rays() {
         if !crate::cpu::available() {
@@ -196,6 +242,7 @@ mod tests {
         let volume = CpuVolume { texels: Texels::R32Float(vec![0.0; 8]), dims: [11, 6, 8], normals: None };
         let mut k = 0u32;
         let (mut compared, mut missed, mut truncated, mut windowed) = (0, 0, 0, 0);
+        let (mut bricked, mut outside) = (0, 0);
         for case in 0..60 {
             let v4 = |x: [f32; 3]| [x[0], x[1], x[2], 0.0];
             let mut p =
@@ -225,6 +272,14 @@ mod tests {
             // Occupied voxels in texture axis order.
             p.occupied_lo = [1.5, 0.5, 2.0, 0.0];
             p.occupied_hi = [7.0, 5.0, 9.5, 1.0];
+            // A brick's core box, whose faces on the volume's boundary lie far out.
+            if matches!(case % 6, 1 | 2) {
+                p.bricked = 1;
+                let cut: [f32; 3] = std::array::from_fn(|a| pick(&mut k, 0.2, 0.8) * ext[a]);
+                let upper = case % 12 < 6;
+                p.core_lo = v4(std::array::from_fn(|a| if upper && a != 1 { cut[a] } else { -f32::MAX }));
+                p.core_hi = v4(std::array::from_fn(|a| if upper && a != 1 { f32::MAX } else { cut[a] }));
+            }
             let frame = crate::cpu::Frame {
                 skip_empty: case % 2 == 0,
                 jitter: case % 3 != 1,
@@ -257,12 +312,15 @@ mod tests {
                         compared += 1;
                         truncated += (w.n < w.needed) as u32;
                         windowed += (w.window != (0, w.n)) as u32;
+                        bricked += (p.bricked == 1 && w.window.0 < w.window.1) as u32;
+                        outside += (p.bricked == 1 && w.window == (0, 0) && w.n > 0) as u32;
                     }
                 }
             }
         }
         // The cases reach every branch of the rule.
-        let counts = format!("{compared} {missed} {truncated} {windowed}");
+        let counts = format!("{compared} {missed} {truncated} {windowed} {bricked} {outside}");
         assert!(compared > 10_000 && missed > 1_000 && truncated > 1_000 && windowed > 1_000, "{counts}");
+        assert!(bricked > 1_000 && outside > 500, "{counts}");
     }
 }

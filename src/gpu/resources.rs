@@ -50,15 +50,27 @@ pub struct VolumeGpu {
     pub cpu: Option<CpuVolume>,
 }
 
+/// Whether a volume keeps texels of its own for the native march.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CpuCopy {
+    No,
+    /// While they take at most half the memory the system says is
+    /// available (a frame on the shader would double what they take).
+    IfRoom,
+    /// Where they can be had at all: a brick's, which the frames of a
+    /// bricked volume on the native march read brick after brick.
+    Always,
+}
+
 /// The texels for the native march: only where the caller asks
 /// (`native`), the adapter is a CPU (whose "device memory" is the same RAM)
-/// and the march runs there, and only while they take at most half the
-/// memory the system says is available (frames then stay on the shader):
-/// with a frame on the shader they double what the volume takes, and a
-/// process over its memory is killed, not told.
+/// and the march runs there, and with `IfRoom` only while they take at
+/// most half the memory the system says is available (frames then stay on
+/// the shader): with a frame on the shader they double what the volume
+/// takes, and a process over its memory is killed, not told.
 fn cpu_copy(
     ctx: &GpuContext,
-    native: bool,
+    native: CpuCopy,
     format: wgpu::TextureFormat,
     dims: [usize; 3],
     bytes: &[u8],
@@ -69,7 +81,7 @@ fn cpu_copy(
     }
     // (The normals were made for the texture: keeping them adds no peak.)
     let kept = bytes.len() + normals.as_ref().map_or(0, |n| 4 * n.len());
-    if available_memory().is_some_and(|free| kept as u64 > free / 2) {
+    if native == CpuCopy::IfRoom && available_memory().is_some_and(|free| kept as u64 > free / 2) {
         return None;
     }
     // The march gathers with 32-bit signed offsets: floats for float32
@@ -107,8 +119,8 @@ fn cpu_copy(
 
 /// Whether the native march keeps its own texels of a volume: asked for,
 /// and the only adapter is a CPU that runs the march.
-fn marches_natively(ctx: &GpuContext, native: bool) -> bool {
-    native && ctx.adapter_info.device_type == wgpu::DeviceType::Cpu && crate::cpu::available()
+fn marches_natively(ctx: &GpuContext, native: CpuCopy) -> bool {
+    native != CpuCopy::No && ctx.adapter_info.device_type == wgpu::DeviceType::Cpu && crate::cpu::available()
 }
 
 /// Subnormal floats to zero (keeping the sign): fields that fall off
@@ -144,9 +156,8 @@ fn available_memory() -> Option<u64> {
 impl VolumeGpu {
     /// Uploads `vol`, storing float data at `precision`. `native`: keep the
     /// texels for the native march where it runs (`cpu_copy`), and make
-    /// the texture from them when a frame on the shader needs it; a
-    /// brick's would never be read (the march takes one texture).
-    pub fn upload(ctx: &GpuContext, vol: &VolumeView, precision: Precision, native: bool) -> Result<VolumeGpu, Error> {
+    /// the texture from them when a frame on the shader needs it.
+    pub fn upload(ctx: &GpuContext, vol: &VolumeView, precision: Precision, native: CpuCopy) -> Result<VolumeGpu, Error> {
         let max3d = ctx.limits.max_texture_dimension_3d as usize;
         if let Some(&big) = vol.dims.iter().find(|&&d| d > max3d) {
             return Err(Error::DeviceLimit(format!(
@@ -266,7 +277,7 @@ impl VolumeGpu {
     /// R16Snorm, or with normals one Rgba16Snorm texel (value, normal) per
     /// voxel, half the bytes of (value, normal) in float32. Float data's
     /// occupancy grid is built from the values the device reads.
-    fn upload_fixed16(ctx: &GpuContext, vol: &VolumeView, native: bool) -> Result<VolumeGpu, Error> {
+    fn upload_fixed16(ctx: &GpuContext, vol: &VolumeView, native: CpuCopy) -> Result<VolumeGpu, Error> {
         let coded = Fixed16::encode(vol.voxels)?;
         let grid = match vol.voxels {
             Voxels::F32(_) => {
@@ -295,7 +306,7 @@ impl VolumeGpu {
     /// Float data as float16: R16Float, or with normals one Rgba16Float texel
     /// (value, normal) per voxel, so that a lit sample fetches once. The
     /// occupancy grid is built from the rounded values the device reads.
-    fn upload_f16(ctx: &GpuContext, vol: &VolumeView, values: &[f32], native: bool) -> Result<VolumeGpu, Error> {
+    fn upload_f16(ctx: &GpuContext, vol: &VolumeView, values: &[f32], native: CpuCopy) -> Result<VolumeGpu, Error> {
         let halves = try_collect(values.len(), "converting the volume to float16", values.iter().map(|&v| f32_to_f16(v)))?;
         // Built before the texels so that the rounded copy is freed first
         // (a 512^3 volume's texels alone take 1 GB).
@@ -320,7 +331,7 @@ impl VolumeGpu {
         format: wgpu::TextureFormat,
         bytes: &[u8],
         grid: MinMaxGrid,
-        native: bool,
+        native: CpuCopy,
     ) -> Result<VolumeGpu, Error> {
         let cpu = cpu_copy(ctx, native, format, texels, bytes, &mut None);
         let view = match cpu {
@@ -359,12 +370,12 @@ impl VolumeGpu {
         texels: [usize; 3],
         mut data: Vec<[f32; 4]>,
         grid: MinMaxGrid,
-        native: bool,
+        native: CpuCopy,
     ) -> Result<VolumeGpu, Error> {
         let format = wgpu::TextureFormat::Rgba32Float;
         // (Offsets past i32 are the copy's rule too: whole texels of four floats.)
         if !marches_natively(ctx, native) || 4 * data.len() >= i32::MAX as usize {
-            return Self::whole_texels(ctx, vol, texels, format, bytemuck::cast_slice(&data), grid, false);
+            return Self::whole_texels(ctx, vol, texels, format, bytemuck::cast_slice(&data), grid, CpuCopy::No);
         }
         let bytes = 16 * data.len() as u64;
         flush_subnormals(data.as_flattened_mut());
@@ -402,7 +413,7 @@ impl VolumeGpu {
         vol: &VolumeView,
         values: &[f32],
         normals: &[f32],
-        native: bool,
+        native: CpuCopy,
     ) -> Result<VolumeGpu, Error> {
         let texels = with_normals(values, normals, |c| c)?;
         Self::whole_rgba32(ctx, vol, vol.dims, texels, MinMaxGrid::build(vol), native)
@@ -434,7 +445,7 @@ impl VolumeGpu {
             Voxels::U8(v) => gradients::bordered_texels(|n| v[n] as f32 / 255.0, vol.dims, spacing),
             Voxels::U16(v) => gradients::bordered_texels(|n| v[n] as f32 / 65535.0, vol.dims, spacing),
         }?;
-        let mut gpu = Self::whole_rgba32(ctx, vol, big, data, grid.clone(), true)?;
+        let mut gpu = Self::whole_rgba32(ctx, vol, big, data, grid.clone(), CpuCopy::Always)?;
         gpu.normals_in_volume = true;
         gpu.gradients = true;
         Ok(Some(gpu))

@@ -12,6 +12,7 @@
 //! colour and optical depth, or a projection's running value) instead of a
 //! pixel: a partial image for compositing with other bricks' (sort-last).
 
+use super::frame::{cpu_model, native_params};
 use super::{Ends, FrameStats, GpuRenderer, Rect, STATS_BYTES};
 use crate::bricks::BrickGrid;
 use crate::config::RenderConfig;
@@ -19,7 +20,8 @@ use crate::error::Error;
 use crate::gpu::params::{world_unit, FrameInputs, Params};
 use crate::gpu::pipeline::{marches_back_to_front, Variant};
 use crate::gpu::plan::PassPlan;
-use crate::gpu::resources::{OccSource, Occupancy, RayState, VolumeGpu};
+use crate::cpu::RayStates;
+use crate::gpu::resources::{CpuCopy, OccSource, Occupancy, RayState, VolumeGpu};
 use crate::model::Model;
 use crate::occupancy::{MinMaxGrid, SegmentRanges};
 use crate::output::{Format, Target};
@@ -86,10 +88,16 @@ pub struct BrickFrame {
     light: Light,
     cfg: RenderConfig,
     params: Params,
-    /// Passes dispatched so far.
+    /// Passes dispatched so far (bricks marched, natively).
     dispatched: u32,
+    /// What the native march's bricks took.
+    samples: u64,
+    truncated_needed: u32,
     /// The last brick's pipeline and bindings: the closing dispatch reuses them.
     last: Option<(Variant, wgpu::BindGroup)>,
+    /// The rays' states where the native march renders the frame
+    /// (`native_bricks`), which then never reaches the shader.
+    native: Option<RayStates>,
 }
 
 impl GpuRenderer {
@@ -145,10 +153,10 @@ impl GpuRenderer {
                 "precision 'fixed16' is for volumes in one texture: store bricks as 'float32' or 'float16'".into(),
             ));
         }
-        let mut gpu = VolumeGpu::upload(&ctx, vol, precision, false)?;
+        let mut gpu = VolumeGpu::upload(&ctx, vol, precision, CpuCopy::Always)?;
         // Passes are planned over the brick's own box.
         gpu.bounds = core_box(&grid, &bounds, index);
-        let bytes = gpu.bytes;
+        let bytes = gpu.uploaded();
         slot.grid = Some(gpu.grid.clone());
         slot.shows = None;
         slot.volume = Some(gpu);
@@ -236,8 +244,10 @@ impl GpuRenderer {
         // The eye in continuous voxel coordinates.
         let dims = DVec3::new(b.grid.dims[0] as f64, b.grid.dims[1] as f64, b.grid.dims[2] as f64);
         let eye = (camera.position - b.bounds.min) / b.bounds.extent() * dims;
+        let native = self.native_bricks(cfg);
         let mut order = b.grid.front_to_back(eye);
-        if marches_back_to_front(cfg) {
+        // (The native march takes back-to-front frames front to back.)
+        if marches_back_to_front(cfg) && !native {
             order.reverse();
         }
         // Whether anything in a brick can show, kept per table (or iso value)
@@ -285,7 +295,8 @@ impl GpuRenderer {
         };
         let order: Vec<usize> = order.into_iter().filter(|&i| needed[i] && seen(i)).collect();
         let pixels = self.width as u64 * self.height as u64;
-        if self.frame.ray_state.pixels < pixels {
+        let states = if native { Some(RayStates::new(self.width as usize, self.height as usize)?) } else { None };
+        if !native && self.frame.ray_state.pixels < pixels {
             let limit = self.ctx.max_storage_bytes();
             if pixels * 16 > limit {
                 return Err(Error::DeviceLimit(format!(
@@ -304,7 +315,10 @@ impl GpuRenderer {
             cfg: *cfg,
             params,
             dispatched: 0,
+            samples: 0,
+            truncated_needed: 0,
             last: None,
+            native: states,
         });
         Ok(order)
     }
@@ -349,6 +363,26 @@ impl GpuRenderer {
         let cfg = frame.cfg;
         self.update_occupancy(self.occupancy_source(&cfg))?;
         let (variant, plan) = self.prepare(&frame.camera, &frame.light, &cfg)?;
+        if let Some(states) = frame.native.as_mut() {
+            let vol = self.volume.as_ref().expect("swapped in");
+            if vol.cpu.is_none() {
+                return Err(Error::OutOfMemory(format!(
+                    "brick {index}'s texels could not be kept in memory for the native march"
+                )));
+            }
+            let mut params = frame.params.for_brick(bounds, grid, index).with_slopes(vol.grid.slopes, self.value_map.scale);
+            if let Some(cells) = self.occupancy.occupied {
+                // Rays march only the window of the brick's occupied cells.
+                params = params.with_occupied(cells, vol.grid.dims);
+            }
+            let params = native_params(&params);
+            let native = self.native_frame(&variant, &params);
+            let s = crate::cpu::render_brick(&native, states, stop).map_err(|_| Error::Interrupted)?;
+            frame.samples += s.samples;
+            frame.truncated_needed = frame.truncated_needed.max(s.truncated_needed);
+            frame.dispatched += 1;
+            return Ok(());
+        }
         self.bind(variant.layout.hw_filter)?;
         let bind_group = self.bind_group.as_ref().expect("bound above").0.clone();
         let slopes = self.volume.as_ref().expect("swapped in").grid.slopes;
@@ -374,6 +408,31 @@ impl GpuRenderer {
         let (w, h) = self.whole_frame(out.len(), "output slice")?;
         let frame = self.brick_frame.take().ok_or_else(|| Error::InvalidInput("no bricked frame was begun".into()))?;
         let bounds = self.bricks.as_ref().expect("a frame was begun").bounds;
+        if let Some(states) = &frame.native {
+            // The closing pass: every ray ends from its state.
+            let model = cpu_model(frame.cfg.model);
+            let keep = frame.params.keep_state == 1;
+            let target = Target::floats(out, w, h, Format::PREMULTIPLIED);
+            let rows = states.states().chunks(w);
+            for (row, pixels) in rows.enumerate() {
+                let px: Vec<[f32; 4]> = if keep {
+                    pixels.to_vec()
+                } else {
+                    (0..w).map(|x| states.pixel(row * w + x, model, &self.tables.rows)).collect()
+                };
+                // SAFETY: one thread writes the image, row by row.
+                unsafe { target.put(row, 0, &px) };
+            }
+            self.depth_ready = false;
+            let stats = FrameStats {
+                truncated_needed: frame.truncated_needed,
+                uploaded_bytes: 0,
+                passes: frame.dispatched,
+                samples: frame.samples,
+                native: true,
+            };
+            return Ok(self.finish_frame(stats, 0));
+        }
         let Some((variant, bind_group)) = frame.last else {
             // No brick could show anything.
             out.fill(0.0);

@@ -134,29 +134,34 @@ impl GpuRenderer {
         blank: bool,
         stop: &mut dyn FnMut() -> bool,
     ) -> Result<FrameStats, Error> {
-        let cpu = self.volume.as_ref().and_then(|v| v.cpu.as_ref()).expect("checked by native_covers");
+        let params = native_params(params);
+        let frame = self.native_frame(variant, &params);
+        let iso = frame.model == CpuModel::Isosurface;
+        let pixels = self.width as usize * self.height as usize;
+        let mut depth = if iso { Some(try_vec(pixels, f32::INFINITY, "the depth image")?) } else { None };
+        // (The depth image starts at infinity, a miss's.)
+        let s = crate::cpu::render(&frame, out, depth.as_deref_mut(), blank, stop)
+            .map_err(|_| Error::Interrupted)?;
+        if iso {
+            self.depth_unit = world_unit(&self.volume.as_ref().expect("checked by native_covers").bounds);
+            self.depth_ready = true;
+            self.native_depth = depth;
+        }
+        let stats = FrameStats { truncated_needed: s.truncated_needed, uploaded_bytes: 0, passes: 1, samples: s.samples, native: true };
+        Ok(self.finish_frame(stats, 0))
+    }
+
+    /// The native march's frame of the current volume (which keeps its
+    /// texels for it) and tables under `variant`, from `native_params`.
+    pub(super) fn native_frame<'a>(&'a self, variant: &Variant, params: &'a Params) -> crate::cpu::Frame<'a> {
+        let cpu = self.volume.as_ref().and_then(|v| v.cpu.as_ref()).expect("the volume keeps its texels");
         let occ = &self.occupancy;
-        // The march's workers flush subnormal results to zero but read
-        // subnormal operands (crate::cpu): the value map's scale is joined
-        // here, on a thread that keeps it.
-        let mut params = *params;
-        params.value_scale = (params.value_prescale as f64 * params.value_scale as f64) as f32;
-        params.value_prescale = 1.0;
-        let model = match variant.model {
-            Model::Absorption => CpuModel::Absorption,
-            Model::Emission => CpuModel::Emission,
-            Model::Mip => CpuModel::Mip,
-            Model::MinIp => CpuModel::MinIp,
-            Model::Average => CpuModel::Average,
-            Model::Isosurface => CpuModel::Isosurface,
-            Model::SingleScattering => CpuModel::SingleScattering,
-            _ => CpuModel::EmissionAbsorption,
-        };
+        let model = cpu_model(variant.model);
         let iso = model == CpuModel::Isosurface;
         // Projections read every segment (the shader's too): no leaps, no runs.
         let cells = !occ.codes.is_empty() && !model.projects();
-        let frame = crate::cpu::Frame {
-            params: &params,
+        crate::cpu::Frame {
+            params,
             volume: cpu,
             lut: &self.tables.rows,
             cells: cells.then_some((&occ.codes[..], occ.dims)),
@@ -176,19 +181,25 @@ impl GpuRenderer {
             unbiased: variant.unbiased,
             back_to_front: variant.unbiased && variant.back_to_front,
             majorants: (variant.unbiased && variant.cell_rates && cells).then_some(&occ.majorants[..]),
-        };
-        let pixels = self.width as usize * self.height as usize;
-        let mut depth = if iso { Some(try_vec(pixels, f32::INFINITY, "the depth image")?) } else { None };
-        // (The depth image starts at infinity, a miss's.)
-        let s = crate::cpu::render(&frame, out, depth.as_deref_mut(), blank, stop)
-            .map_err(|_| Error::Interrupted)?;
-        if iso {
-            self.depth_unit = world_unit(&self.volume.as_ref().expect("checked by native_covers").bounds);
-            self.depth_ready = true;
-            self.native_depth = depth;
         }
-        let stats = FrameStats { truncated_needed: s.truncated_needed, uploaded_bytes: 0, passes: 1, samples: s.samples, native: true };
-        Ok(self.finish_frame(stats, 0))
+    }
+
+    /// Whether a bricked frame under `cfg` is marched natively, brick after
+    /// brick: the adapter is a CPU that runs the march (whose bricks then
+    /// keep their texels, `set_brick`), and the frame is emission-absorption
+    /// (plain, pre-integrated or refined), absorption or emission, marched
+    /// front to back, or a projection. The rest (unbiased frames, the
+    /// isosurface) stays on the shader.
+    pub(super) fn native_bricks(&self, cfg: &RenderConfig) -> bool {
+        let composites = matches!(cfg.model, Model::EmissionAbsorption | Model::Absorption | Model::Emission);
+        let projects = matches!(cfg.model, Model::Mip | Model::MinIp | Model::Average);
+        self.native_march
+            && self.ctx.adapter_info.device_type == wgpu::DeviceType::Cpu
+            && crate::cpu::available()
+            && (projects || composites && !cfg.unbiased)
+            && (!cfg.pre_integrates() || cfg.model == Model::EmissionAbsorption)
+            && self.tables.rows.len() >= 2
+            && cfg.max_steps <= crate::cpu::MAX_STEPS as i64
     }
 
     /// Copies the last dispatch's image into `out`, in its format, on every
@@ -539,5 +550,29 @@ impl GpuRenderer {
     ) -> Result<FrameStats, Error> {
         let (w, h) = self.whole_frame(sums.len(), "sums")?;
         self.render_frame(camera, light, cfg, &mut Target::sums(sums, w, h), true, stop)
+    }
+}
+
+/// `params` for the native march: its workers flush subnormal results to
+/// zero but read subnormal operands (crate::cpu), so the value map's scale
+/// is joined here, on a thread that keeps it.
+pub(super) fn native_params(params: &Params) -> Params {
+    let mut params = *params;
+    params.value_scale = (params.value_prescale as f64 * params.value_scale as f64) as f32;
+    params.value_prescale = 1.0;
+    params
+}
+
+/// The native march's name for `model`.
+pub(super) fn cpu_model(model: Model) -> CpuModel {
+    match model {
+        Model::Absorption => CpuModel::Absorption,
+        Model::Emission => CpuModel::Emission,
+        Model::Mip => CpuModel::Mip,
+        Model::MinIp => CpuModel::MinIp,
+        Model::Average => CpuModel::Average,
+        Model::Isosurface => CpuModel::Isosurface,
+        Model::SingleScattering => CpuModel::SingleScattering,
+        Model::EmissionAbsorption => CpuModel::EmissionAbsorption,
     }
 }

@@ -10,7 +10,7 @@ use crate::model::Model;
 use crate::occupancy::{segment_ranges, uniform_radius, SegmentRanges};
 use super::params::Params;
 use super::pipeline::{max_dispatch_side, Pipelines};
-use super::resources::{readback_buffer, Fixed, OccSource, Occupancy, Output, RayState, Tables, VolumeGpu};
+use super::resources::{readback_buffer, CpuCopy, Fixed, OccSource, Occupancy, Output, RayState, Tables, VolumeGpu};
 use crate::scene::Bounds;
 use crate::transfer::ValueMap;
 use crate::volume::{Precision, VolumeView};
@@ -325,7 +325,7 @@ impl GpuRenderer {
     /// Uploads a volume, storing float data at `precision`.
     pub fn set_volume_with_precision(&mut self, vol: &VolumeView, precision: Precision) -> Result<(), Error> {
         self.check_process()?;
-        let volume = VolumeGpu::upload(&self.ctx, vol, precision, true)?;
+        let volume = VolumeGpu::upload(&self.ctx, vol, precision, CpuCopy::IfRoom)?;
         let total = volume.uploaded();
         self.volume = Some(volume);
         self.bricks = None;
