@@ -393,9 +393,9 @@ def test_native_single_scattering_matches_the_shader(kind):
 @pytest.mark.parametrize("model", ["emission_absorption", "mip", "isosurface", "unbiased"])
 def test_bricked_frames_the_native_march_does_not_cover_stay_on_the_shader(model):
     # A volume in bricks takes several textures, which the native march
-    # reads one after another for emission-absorption and the projections
-    # (here lit from normals stored apart); the isosurface and unbiased
-    # frames of bricks stay on the shader. Each matches the single texture.
+    # reads one after another for emission-absorption, the projections and
+    # the isosurface (here lit from normals stored apart); unbiased frames
+    # of bricks stay on the shader. Each matches the single texture.
     d = sphere_pair()
     vol = Volume(np.round(d * 255).astype(np.uint8), compute_normal_volume(d), *BOX)
     lit = Light.directional([-0.6, -0.3, -0.8], ambient=0.25, diffuse=0.75)
@@ -409,7 +409,7 @@ def test_bricked_frames_the_native_march_does_not_cover_stay_on_the_shader(model
                                  OpacityTransferFunction.linear(0.0, 0.4))
         r.native_march = True
         frames[bricks is None] = r.render(dtype=np.float32, premultiplied=True), r.last_frame_stats["engine"]
-    native = model in ("emission_absorption", "mip")
+    native = model != "unbiased"
     assert frames[False][1] == ("native" if native else "gpu") and frames[True][1] == "native"
     assert frames[True][0][..., 3].max() > 0.3
     if model != "unbiased":  # (each engine draws its own points)

@@ -18,6 +18,15 @@ use std::sync::atomic::{AtomicBool, Ordering};
 /// miss) in `depth`; stops early (its pixels then are garbage) once `halt`
 /// is set.
 ///
+/// In a brick's march (`stopped` given, as `super::avx2::march` takes it)
+/// `out` holds each ray's state before and after: (the bracket's lower end,
+/// its value, 1 where that value was read, 1 once the ray has started), or
+/// for a ray that has ended (its bit in `stopped`) its pixel's colour and
+/// hit distance (infinity on a miss). A ray starts in the brick holding its
+/// entry, whose value it tests, or, where the bricks before were passed
+/// over, from the last midpoint before its window (read from the ghosts);
+/// the brick holding its last segment tests its exit.
+///
 /// # Safety
 /// Needs AVX2, FMA and F16C; `f.cells`, where given, is followed by three
 /// readable bytes, and the texels by the padding their reads need
@@ -31,6 +40,7 @@ pub unsafe fn iso<T: Texels>(
     out: &mut [[f32; 4]; TILE],
     depth: &mut [f32; TILE],
     halt: &AtomicBool,
+    mut stopped_before: Option<&mut u8>,
 ) -> Stats {
     let p = f.params;
     let dims = f.volume.dims;
@@ -69,7 +79,9 @@ pub unsafe fn iso<T: Texels>(
     let n = rays.n;
     // Rays whose every step was taken test their exit too.
     let whole = as_ps(_mm256_cmpeq_epi32(n, _mm256_cvttps_epi32(_mm256_min_ps(rays.needed, set(2.0e9)))));
-    let whole = _mm256_and_ps(whole, _mm256_cmp_ps::<_CMP_LT_OQ>(rays.needed, set(2.0e9)));
+    let mut whole = _mm256_and_ps(whole, _mm256_cmp_ps::<_CMP_LT_OQ>(rays.needed, set(2.0e9)));
+    // Segments [i, end) are marched: all of them, or a brick's window.
+    let (mut i, mut end) = (zi, n);
 
     // The entry: a ray starting inside the surface hits at 0.
     let mut taken = _mm256_and_si256(_mm256_castps_si256(rays.hit), onei);
@@ -77,14 +89,39 @@ pub unsafe fn iso<T: Texels>(
     let mut prev_v = value_at(zero);
     let mut prev_known = rays.hit;
     let mut found = _mm256_and_ps(rays.hit, reaches(prev_v));
+    let mut started = rays.hit;
+    // A brick's lanes with segments in it (the others keep their state).
+    let mut open = rays.hit;
+    if let Some(before) = stopped_before.as_deref() {
+        let lane_bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+        let done = as_ps(_mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(*before as i32), lane_bit), lane_bit));
+        let column = |c: usize| _mm256_loadu_ps(std::array::from_fn::<f32, 8, _>(|l| out[l][c]).as_ptr());
+        open = _mm256_andnot_ps(done, _mm256_and_ps(rays.hit, as_ps(_mm256_cmpgt_epi32(rays.hi, rays.lo))));
+        let was_started = _mm256_cmp_ps::<_CMP_NEQ_UQ>(column(3), zero);
+        let entry = _mm256_andnot_ps(was_started, _mm256_and_ps(open, as_ps(_mm256_cmpeq_epi32(rays.lo, zi))));
+        let resumed = _mm256_andnot_ps(entry, open);
+        let begins = _mm256_andnot_ps(was_started, resumed);
+        // A ray starting past its entry brackets from the midpoint before its window.
+        let before_window = midpoint(_mm256_sub_epi32(rays.lo, onei));
+        prev = _mm256_blendv_ps(_mm256_blendv_ps(zero, column(0), resumed), before_window, begins);
+        let read = _mm256_or_ps(entry, begins);
+        let v = value_at(prev);
+        prev_v = _mm256_blendv_ps(column(1), v, read);
+        prev_known = _mm256_or_ps(read, _mm256_and_ps(resumed, _mm256_cmp_ps::<_CMP_NEQ_UQ>(column(2), zero)));
+        taken = _mm256_and_si256(_mm256_castps_si256(read), onei);
+        found = _mm256_and_ps(entry, reaches(v));
+        started = _mm256_or_ps(read, _mm256_and_ps(open, was_started));
+        (i, end) = (rays.lo, rays.hi);
+        // Only the brick holding a ray's last segment tests its exit.
+        whole = _mm256_and_ps(whole, as_ps(_mm256_cmpeq_epi32(end, n)));
+    }
     let mut hit_at = zero;
-    let mut i = zi;
-    // Lanes still marching: their ray exists, has not hit, and has points left.
-    let mut going = _mm256_andnot_ps(found, rays.hit);
+    // Lanes still marching: their ray has started, has not hit, and has points left.
+    let mut going = _mm256_andnot_ps(found, started);
     let mut steps = 0u32;
     loop {
-        // Segment i's midpoint while i < n; the exit at i == n for a whole ray.
-        let inside = as_ps(_mm256_cmpgt_epi32(n, i));
+        // Segment i's midpoint while i < end; the exit at i == n for a whole ray.
+        let inside = as_ps(_mm256_cmpgt_epi32(end, i));
         let exit = _mm256_and_ps(whole, as_ps(_mm256_cmpeq_epi32(i, n)));
         going = _mm256_and_ps(going, _mm256_or_ps(inside, exit));
         if _mm256_movemask_ps(going) == 0 {
@@ -135,7 +172,7 @@ pub unsafe fn iso<T: Texels>(
             // isosurface.wgsl `iso_leap`: from a point below the iso value in
             // an empty cube, to the first midpoint past it, keeping the last
             // midpoint inside as the bracket's (unread) lower end.
-            let may = _mm256_and_ps(below, as_ps(_mm256_cmpgt_epi32(_mm256_add_epi32(n, onei), i)));
+            let may = _mm256_and_ps(below, as_ps(_mm256_cmpgt_epi32(_mm256_add_epi32(end, onei), i)));
             if _mm256_movemask_ps(may) != 0 {
                 let cell = cells.at(at);
                 // SAFETY: the cell is clamped into the grid, whose codes are followed by three bytes.
@@ -149,7 +186,7 @@ pub unsafe fn iso<T: Texels>(
                         _mm256_sub_ps(_mm256_div_ps(_mm256_add_ps(at, exit), h), set(0.5)),
                         _mm256_add_ps(rays.shift, set(1e-3)),
                     ));
-                    let kf = _mm256_min_ps(_mm256_max_ps(kf, _mm256_cvtepi32_ps(i)), _mm256_cvtepi32_ps(n));
+                    let kf = _mm256_min_ps(_mm256_max_ps(kf, _mm256_cvtepi32_ps(i)), _mm256_cvtepi32_ps(end));
                     let next = _mm256_cvttps_epi32(kf);
                     let leaps = _mm256_and_ps(empty, as_ps(_mm256_cmpgt_epi32(next, i)));
                     prev = _mm256_blendv_ps(prev, midpoint(_mm256_sub_epi32(next, onei)), leaps);
@@ -185,6 +222,30 @@ pub unsafe fn iso<T: Texels>(
     let c = crate::transfer::eval_lut(f.lut, p.iso_value as f64).map(|c| c as f32);
     let hits = _mm256_movemask_ps(rays.hit);
     let mut stats = Stats::default();
+    if let Some(before) = stopped_before.as_deref_mut() {
+        let earlier = *before;
+        let (state, ends) = ([lanes(prev), lanes(prev_v), lanes(prev_known), lanes(started)], int_lanes(end));
+        let open = _mm256_movemask_ps(open);
+        for l in (0..TILE).filter(|l| open & (1 << l) != 0 && earlier & (1 << l) == 0) {
+            stats.samples += counts[l] as u64;
+            let set = |x: f32| if x.to_bits() != 0 { 1.0 } else { 0.0 };
+            if found[l].to_bits() != 0 {
+                out[l] = [c[0] * light[l], c[1] * light[l], c[2] * light[l], t0[l] + hit_at[l]];
+                *before |= 1 << l;
+            } else if state[3][l].to_bits() != 0 && ends[l] == steps_n[l] {
+                // Past its last segment (and exit) without a hit: a miss.
+                let needed = needed[l] as u32;
+                if (steps_n[l] as u32) < needed {
+                    stats.truncated_needed = stats.truncated_needed.max(needed);
+                }
+                out[l] = [0.0, 0.0, 0.0, f32::INFINITY];
+                *before |= 1 << l;
+            } else {
+                out[l] = [state[0][l], state[1][l], set(state[2][l]), set(state[3][l])];
+            }
+        }
+        return stats;
+    }
     for l in 0..TILE {
         out[l] = [0.0; 4];
         depth[l] = f32::INFINITY;

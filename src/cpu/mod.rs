@@ -19,7 +19,7 @@
 //! isosurface (`isosurface`) and unbiased frames (`tracking`), from a
 //! volume held in one texture
 //! (float32, float16 or 16-bit fixed-point texels, or 8- and 16-bit codes);
-//! and a bricked volume's integrals and projections brick after brick
+//! and a bricked volume's integrals, projections and isosurface brick after brick
 //! (`render_brick`), each ray's state kept in memory between bricks.
 //! Everything else stays on the GPU path, whose images these match
 //! (tests/test_native_march.py, tests/test_bricks.py).
@@ -432,6 +432,17 @@ impl RayStates {
         &self.state
     }
 
+    /// Whether pixel i's ray has stopped.
+    fn stopped(&self, i: usize) -> bool {
+        let (col, row) = (i % self.width, i / self.width);
+        self.stopped[row * self.width.div_ceil(TILE) + col / TILE] & (1 << (col % TILE)) != 0
+    }
+
+    /// An isosurface's hit distance of pixel i (infinity on a miss).
+    pub fn depth(&self, i: usize) -> f32 {
+        if self.stopped(i) { self.state[i][3] } else { f32::INFINITY }
+    }
+
     /// Pixel i's premultiplied (colour, alpha) under `model` and the
     /// transfer function's table `lut`, as the march ends a ray: alpha
     /// 1 - e^-tau (none for the emission model's glow), or a projection's
@@ -439,6 +450,8 @@ impl RayStates {
     pub fn pixel(&self, i: usize, model: Model, lut: &[[f32; 4]]) -> [f32; 4] {
         let [r, g, b, tau] = self.state[i];
         let value = match model {
+            Model::Isosurface if self.depth(i).is_finite() => return [r, g, b, 1.0],
+            Model::Isosurface => return [0.0; 4],
             Model::Average if g > 0.0 => r / g,
             Model::Mip | Model::MinIp if g > 0.0 => r,
             m if m.projects() => return [0.0; 4],
@@ -458,15 +471,17 @@ impl RayStates {
 /// are not marched again. Only the pixels whose rays can meet the brick
 /// (its box within the crop's footprint) are visited. Covers
 /// emission-absorption (plain, pre-integrated or refined), absorption and
-/// emission frames marched front to back, and the projections.
-/// Interrupted as `render`.
+/// emission frames marched front to back, the projections and the
+/// isosurface. Interrupted as `render`.
 pub fn render_brick(frame: &Frame, states: &mut RayStates, stop: &mut dyn FnMut() -> bool) -> Result<Stats, Interrupted> {
     let p = frame.params;
     let (w, h) = (p.width as usize, p.height as usize);
     assert_eq!(states.size(), (w, h), "ray states' size");
     assert!(p.bricked == 1, "a brick's block");
     let models = [Model::EmissionAbsorption, Model::Absorption, Model::Emission];
-    let covered = frame.model.projects() || models.contains(&frame.model) && !frame.unbiased && !frame.scatter;
+    let covered = frame.model.projects()
+        || frame.model == Model::Isosurface
+        || models.contains(&frame.model) && !frame.unbiased && !frame.scatter;
     assert!(covered, "bricked frames' models");
     check(frame);
     let clear = clear::Clear::new(frame.lut, frame.preint.map(|t| (&t.texels[..], t.side)));
@@ -625,7 +640,7 @@ fn march_row(
         // SAFETY: `render` checked AVX2, FMA, F16C and the paddings.
         unsafe {
             if frame.model == Model::Isosurface {
-                return with_reader!(frame.volume, frame.lit, t => isosurface::iso(frame, t, col0, row, out, depth, halt));
+                return with_reader!(frame.volume, frame.lit, t => isosurface::iso(frame, t, col0, row, out, depth, halt, stopped));
             }
             if frame.model.projects() {
                 return with_reader!(frame.volume, false, t => projection::project(frame, t, col0, row, out, halt, stopped));

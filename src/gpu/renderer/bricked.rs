@@ -16,7 +16,7 @@ use super::frame::{cpu_model, native_params};
 use super::{Ends, FrameStats, GpuRenderer, Rect, STATS_BYTES};
 use crate::bricks::BrickGrid;
 use crate::config::RenderConfig;
-use crate::error::Error;
+use crate::error::{try_vec, Error};
 use crate::gpu::params::{world_unit, FrameInputs, Params};
 use crate::gpu::pipeline::{marches_back_to_front, Variant};
 use crate::gpu::plan::PassPlan;
@@ -371,8 +371,9 @@ impl GpuRenderer {
                 )));
             }
             let mut params = frame.params.for_brick(bounds, grid, index).with_slopes(vol.grid.slopes, self.value_map.scale);
-            if let Some(cells) = self.occupancy.occupied {
-                // Rays march only the window of the brick's occupied cells.
+            if let Some(cells) = self.occupancy.occupied.filter(|_| cfg.model != Model::Isosurface) {
+                // Rays march only the window of the brick's occupied cells
+                // (the isosurface's leaps keep its bracket's lower end).
                 params = params.with_occupied(cells, vol.grid.dims);
             }
             let params = native_params(&params);
@@ -411,7 +412,8 @@ impl GpuRenderer {
         if let Some(states) = &frame.native {
             // The closing pass: every ray ends from its state.
             let model = cpu_model(frame.cfg.model);
-            let keep = frame.params.keep_state == 1;
+            // (The isosurface's partial image is its pixels, as the shader's.)
+            let keep = frame.params.keep_state == 1 && frame.cfg.model != Model::Isosurface;
             let target = Target::floats(out, w, h, Format::PREMULTIPLIED);
             let rows = states.states().chunks(w);
             for (row, pixels) in rows.enumerate() {
@@ -423,7 +425,15 @@ impl GpuRenderer {
                 // SAFETY: one thread writes the image, row by row.
                 unsafe { target.put(row, 0, &px) };
             }
-            self.depth_ready = false;
+            self.depth_ready = frame.cfg.model == Model::Isosurface;
+            if self.depth_ready {
+                self.depth_unit = world_unit(&bounds);
+                let mut depth = try_vec(w * h, f32::INFINITY, "the depth image")?;
+                for (i, d) in depth.iter_mut().enumerate() {
+                    *d = states.depth(i);
+                }
+                self.native_depth = Some(depth);
+            }
             let stats = FrameStats {
                 truncated_needed: frame.truncated_needed,
                 uploaded_bytes: 0,

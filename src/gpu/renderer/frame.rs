@@ -188,15 +188,18 @@ impl GpuRenderer {
     /// brick: the adapter is a CPU that runs the march (whose bricks then
     /// keep their texels, `set_brick`), and the frame is emission-absorption
     /// (plain, pre-integrated or refined), absorption or emission, marched
-    /// front to back, or a projection. The rest (unbiased frames, the
-    /// isosurface) stays on the shader.
+    /// front to back, a projection or the isosurface. Unbiased frames stay
+    /// on the shader.
     pub(super) fn native_bricks(&self, cfg: &RenderConfig) -> bool {
-        let composites = matches!(cfg.model, Model::EmissionAbsorption | Model::Absorption | Model::Emission);
-        let projects = matches!(cfg.model, Model::Mip | Model::MinIp | Model::Average);
+        let covered = match cfg.model {
+            Model::EmissionAbsorption | Model::Absorption | Model::Emission => !cfg.unbiased,
+            Model::Mip | Model::MinIp | Model::Average | Model::Isosurface => true,
+            Model::SingleScattering => false,
+        };
         self.native_march
             && self.ctx.adapter_info.device_type == wgpu::DeviceType::Cpu
             && crate::cpu::available()
-            && (projects || composites && !cfg.unbiased)
+            && covered
             && (!cfg.pre_integrates() || cfg.model == Model::EmissionAbsorption)
             && self.tables.rows.len() >= 2
             && cfg.max_steps <= crate::cpu::MAX_STEPS as i64
