@@ -61,17 +61,35 @@ CONFIGS = {
     "minip": {"model": "minip"},
     "average": {"model": "average"},
     "isosurface": {"model": "isosurface", "iso_value": 0.5},
+    "isosurface_jitter": {"model": "isosurface", "iso_value": 0.3, "jitter": True},
+    "refined": {"pre_integrated": True, "refine": 8},
+    "truncated": {"max_steps": 40, "early_ray_termination": False},
+    "mip_truncated": {"model": "mip", "max_steps": 40},
 }
+# Where the only adapter is a CPU the native march renders bricked frames
+# too, all but these (whose points each engine draws its own way): both
+# renderers of a comparison run on one engine.
+SHADER_ONLY = {"unbiased", "unbiased_back_to_front"}
+CASES = [(engine, name) for engine in ("shader", "native") for name in sorted(CONFIGS)
+         if engine == "shader" or name not in SHADER_ONLY]
+
+
+def loaded_pair(native):
+    vol = Volume(data=scene_data(), min_bounds=BOX[0], max_bounds=BOX[1])
+    whole, bricked = renderer(native), renderer(native, brick_shape=(9, 11, 7))
+    whole.load_volume(vol)
+    bricked.load_volume(vol)
+    return whole, bricked
 
 
 @pytest.fixture(scope="module")
 def pair():
-    data = scene_data()
-    vol = Volume(data=data, min_bounds=BOX[0], max_bounds=BOX[1])
-    whole, bricked = renderer(), renderer(brick_shape=(9, 11, 7))
-    whole.load_volume(vol)
-    bricked.load_volume(vol)
-    return whole, bricked
+    return loaded_pair(False)
+
+
+@pytest.fixture(scope="module")
+def native_pair():
+    return loaded_pair(True)
 
 
 def test_small_bricks_are_really_used(pair):
@@ -80,77 +98,29 @@ def test_small_bricks_are_really_used(pair):
     assert pair[0].bricks is None
 
 
-@pytest.mark.parametrize("name", sorted(CONFIGS))
-def test_bricked_frame_equals_single_texture(pair, name):
-    whole, bricked = pair
+@pytest.mark.parametrize("engine,name", CASES)
+def test_bricked_frame_equals_single_texture(request, engine, name):
+    # Each ray's state (colour, optical depth or a projection's value, the
+    # isosurface's bracket; whether it stopped) passes from brick to brick:
+    # a segment marched twice or skipped, or a ray marched on after it
+    # stopped, costs whole levels.
+    whole, bricked = request.getfixturevalue("native_pair" if engine == "native" else "pair")
+    runs = "native" if engine == "native" and device_limits()["native_march"] and name not in SHADER_ONLY else "gpu"
     cfg = config(**CONFIGS[name])
+    # Refined frames pick the segments they refine from each brick's own
+    # slopes, which moves pixels of alpha ~1e-3 by 0.02 level: their
+    # straight colour would magnify it.
+    premultiplied = name == "refined"
     outside = Camera.from_spherical(np.zeros(3), 0.7, 0.4, 0.0, 3.0)
     inside = Camera(target=np.array([-1.0, 0.2, 0.1]), azimuth=0.0, elevation=0.0, roll=0.0, distance=0.9)
     for cam in (outside, inside):
         whole.set_camera(cam)
         bricked.set_camera(cam)
-        a = whole.render(dtype=np.float32, config=cfg)
-        b = bricked.render(dtype=np.float32, config=cfg)
-        if cam is outside:
-            assert a.max() > 0.05, "the scene must show something"
-        assert np.abs(a - b).max() < TOL, f"{name}: max difference {np.abs(a - b).max() / LEVEL:.4f} levels"
-        if name == "isosurface" and cam is outside:
-            da, db = whole.depth(), bricked.depth()
-            hit = np.isfinite(da)
-            assert hit.sum() > 100 and np.array_equal(hit, np.isfinite(db))
-            assert np.abs(da[hit] - db[hit]).max(initial=0.0) < 1e-4
-
-
-# The frames the native march renders brick after brick where the only
-# adapter is a CPU (elsewhere the shader renders them, and they must match all the same).
-NATIVE_CONFIGS = {
-    "emission_absorption": {},
-    "back_to_front": {"order": "back_to_front"},
-    "jitter_early_stop": {"jitter": True, "opacity_threshold": 0.7},
-    "pre_integrated": {"pre_integrated": True},
-    "refined": {"pre_integrated": True, "refine": 8},
-    "power_correction": {"opacity_correction": "power"},
-    "absorption": {"model": "absorption"},
-    "emission": {"model": "emission"},
-    "truncated": {"max_steps": 40, "early_ray_termination": False},
-    "mip": {"model": "mip"},
-    "average": {"model": "average"},
-    "mip_truncated": {"model": "mip", "max_steps": 40},
-    "isosurface": {"model": "isosurface", "iso_value": 0.5},
-    "isosurface_jitter": {"model": "isosurface", "iso_value": 0.3, "jitter": True},
-}
-
-
-@pytest.fixture(scope="module")
-def native_pair():
-    vol = Volume(data=scene_data(), min_bounds=BOX[0], max_bounds=BOX[1])
-    whole, bricked = renderer(native=True), renderer(native=True, brick_shape=(9, 11, 7))
-    whole.load_volume(vol)
-    bricked.load_volume(vol)
-    return whole, bricked
-
-
-@pytest.mark.parametrize("name", sorted(NATIVE_CONFIGS))
-def test_native_bricked_frame_equals_single_texture(native_pair, name):
-    # Each ray's state (colour, optical depth, whether it stopped) passes
-    # from brick to brick in memory: a segment marched twice or skipped, or
-    # a ray marched on after it stopped, costs whole levels. Premultiplied:
-    # refined frames pick their segments from each brick's own slopes, a
-    # different choice that moves the colour of pixels of alpha ~1e-3 by
-    # 0.02 level, which their straight colour magnifies (on the shader too).
-    whole, bricked = native_pair
-    engine = "native" if device_limits()["native_march"] else "gpu"
-    cfg = config(**NATIVE_CONFIGS[name])
-    outside = Camera.from_spherical(np.zeros(3), 0.7, 0.4, 0.0, 3.0)
-    inside = Camera(target=np.array([-1.0, 0.2, 0.1]), azimuth=0.0, elevation=0.0, roll=0.0, distance=0.9)
-    for cam in (outside, inside):
-        whole.set_camera(cam)
-        bricked.set_camera(cam)
-        a = whole.render(dtype=np.float32, premultiplied=True, config=cfg)
+        a = whole.render(dtype=np.float32, premultiplied=premultiplied, config=cfg)
         want = whole.last_frame_stats
-        b = bricked.render(dtype=np.float32, premultiplied=True, config=cfg)
+        b = bricked.render(dtype=np.float32, premultiplied=premultiplied, config=cfg)
         got = bricked.last_frame_stats
-        assert got["engine"] == want["engine"] == engine
+        assert got["engine"] == runs
         if cam is outside:
             assert a.max() > 0.05, "the scene must show something"
         assert np.abs(a - b).max() < TOL, f"{name}: max difference {np.abs(a - b).max() / LEVEL:.4f} levels"
