@@ -407,3 +407,21 @@ def test_isosurface_at_the_box_faces_in_bricks(where, native):
     assert hit.mean() > 0.25 and np.array_equal(hit, np.isfinite(db)) and np.abs(da[hit] - db[hit]).max() < 1e-4
     assert np.abs(a - b).max() < TOL, np.abs(a - b).max() / LEVEL
     assert abs(da[28, 32] - (2.0 if where == "entry" else 4.0)) < 0.05, da[28, 32]
+
+
+def test_bricks_loaded_with_the_native_march_off_stay_on_the_shader():
+    # Resident bricks loaded while the native march was off keep no texels
+    # for it (the shader's textures alone): turning it on later renders
+    # them on the shader, the same image, and a volume loaded anew is native.
+    vol = Volume(data=scene_data(), min_bounds=BOX[0], max_bounds=BOX[1])
+    r = renderer(False, brick_shape=(9, 11, 7))
+    r.load_volume(vol)
+    a = r.render(dtype=np.float32, premultiplied=True)
+    assert r.last_frame_stats["engine"] == "gpu" and a[..., 3].max() > 0.2
+    r.native_march = True
+    b = r.render(dtype=np.float32, premultiplied=True)
+    assert r.last_frame_stats["engine"] == "gpu" and np.abs(a - b).max() < TOL
+    r.load_volume(vol)
+    c = r.render(dtype=np.float32, premultiplied=True)
+    assert r.last_frame_stats["engine"] == ("native" if device_limits()["native_march"] else "gpu")
+    assert np.abs(a - c).max() < TOL

@@ -546,6 +546,29 @@ pub(super) fn int_lanes(x: __m256i) -> [i32; 8] {
     out
 }
 
+/// All bits set in lane l where bit l of `bits` is (a brick's stopped rays).
+#[inline]
+#[target_feature(enable = "avx2,fma,f16c")]
+pub(super) fn lanes_of(bits: u8) -> __m256 {
+    let bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+    _mm256_castsi256_ps(_mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(bits as i32), bit), bit))
+}
+
+/// Channel `c` of eight pixels (a brick's ray states), one a lane.
+#[inline]
+#[target_feature(enable = "avx2,fma,f16c")]
+pub(super) fn channel(px: &[[f32; 4]; TILE], c: usize) -> __m256 {
+    // SAFETY: an unaligned load of eight floats.
+    unsafe { _mm256_loadu_ps(std::array::from_fn::<f32, 8, _>(|l| px[l][c]).as_ptr()) }
+}
+
+/// Whether a brick's march reports lane l's ray as cut short by max_steps:
+/// the brick holds the ray's last segment (its window [lo, hi) is not empty
+/// and ends at n), the ray has not stopped, and it needed more than n.
+pub(super) fn truncated_here(lo: i32, hi: i32, n: i32, needed: u32, stopped: bool) -> bool {
+    !stopped && lo < hi && hi == n && (n as u32) < needed
+}
+
 #[inline]
 #[target_feature(enable = "avx2,fma,f16c")]
 fn dot3(a: &[__m256; 3], b: &[__m256; 3]) -> __m256 {
@@ -773,14 +796,9 @@ pub unsafe fn march<T: Texels>(
     let (mut tau, mut tau_b, mut trans) = (zero, zero, one);
     if let Some(before) = stopped_before.as_deref() {
         // The rays go on from their state (compositing.wgsl `start_integration`).
-        let bits = _mm256_set1_epi32(*before as i32);
-        let lane_bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
-        let done = _mm256_cmpeq_epi32(_mm256_and_si256(bits, lane_bit), lane_bit);
-        active = _mm256_andnot_ps(as_ps(done), active);
-        let column = |c: usize| _mm256_loadu_ps(std::array::from_fn::<f32, 8, _>(|l| out[l][c]).as_ptr());
-        color = std::array::from_fn(column);
-        tau = _mm256_and_ps(column(3), rays.hit);
-        color = color.map(|c| _mm256_and_ps(c, rays.hit));
+        active = _mm256_andnot_ps(lanes_of(*before), active);
+        color = std::array::from_fn(|c| _mm256_and_ps(channel(out, c), rays.hit));
+        tau = _mm256_and_ps(channel(out, 3), rays.hit);
         if f.model != Model::Emission {
             trans = exp_nonpositive(_mm256_sub_ps(zero, tau));
         }
@@ -1319,15 +1337,12 @@ pub unsafe fn march<T: Texels>(
     let mut stats = Stats::default();
     if let Some(before) = stopped_before.as_deref_mut() {
         let earlier = *before;
-        let (mut lo, mut hi) = ([0i32; 8], [0i32; 8]);
-        _mm256_storeu_si256(lo.as_mut_ptr() as *mut __m256i, rays.lo);
-        _mm256_storeu_si256(hi.as_mut_ptr() as *mut __m256i, rays.hi);
+        let (lo, hi) = (int_lanes(rays.lo), int_lanes(rays.hi));
         for l in (0..TILE).filter(|l| hits & (1 << l) != 0 && earlier & (1 << l) == 0) {
             stats.samples += counts[l] as u64;
             let was_stopped = lanes_out[5][l].to_bits() != 0;
             let needed = lanes_out[6][l] as u32;
-            // Reported by the brick holding the ray's last segment.
-            if !was_stopped && lo[l] < hi[l] && hi[l] == steps_n[l] && (steps_n[l] as u32) < needed {
+            if truncated_here(lo[l], hi[l], steps_n[l], needed, was_stopped) {
                 stats.truncated_needed = stats.truncated_needed.max(needed);
             }
             out[l] = [lanes_out[0][l], lanes_out[1][l], lanes_out[2][l], lanes_out[3][l]];

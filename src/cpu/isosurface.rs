@@ -7,7 +7,10 @@
 //! (central differences) where the texels hold none (under a directional
 //! or a point light).
 
-use super::avx2::{corners, gradient_at, int_lanes, lanes, lit_by, point_light_travel, voxel_axes, Spans, Texels};
+use super::avx2::{
+    channel, corners, gradient_at, int_lanes, lanes, lanes_of, lit_by, point_light_travel, truncated_here, voxel_axes, Spans,
+    Texels,
+};
 use super::{Frame, Stats, TILE};
 use crate::gpu::shader::ISO_BISECTIONS;
 use std::arch::x86_64::*;
@@ -93,10 +96,8 @@ pub unsafe fn iso<T: Texels>(
     // A brick's lanes with segments in it (the others keep their state).
     let mut open = rays.hit;
     if let Some(before) = stopped_before.as_deref() {
-        let lane_bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
-        let done = as_ps(_mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(*before as i32), lane_bit), lane_bit));
-        let column = |c: usize| _mm256_loadu_ps(std::array::from_fn::<f32, 8, _>(|l| out[l][c]).as_ptr());
-        open = _mm256_andnot_ps(done, _mm256_and_ps(rays.hit, as_ps(_mm256_cmpgt_epi32(rays.hi, rays.lo))));
+        let column = |c: usize| channel(out, c);
+        open = _mm256_andnot_ps(lanes_of(*before), _mm256_and_ps(rays.hit, as_ps(_mm256_cmpgt_epi32(rays.hi, rays.lo))));
         let was_started = _mm256_cmp_ps::<_CMP_NEQ_UQ>(column(3), zero);
         let entry = _mm256_andnot_ps(was_started, _mm256_and_ps(open, as_ps(_mm256_cmpeq_epi32(rays.lo, zi))));
         let resumed = _mm256_andnot_ps(entry, open);
@@ -235,7 +236,7 @@ pub unsafe fn iso<T: Texels>(
             } else if state[3][l].to_bits() != 0 && ends[l] == steps_n[l] {
                 // Past its last segment (and exit) without a hit: a miss.
                 let needed = needed[l] as u32;
-                if (steps_n[l] as u32) < needed {
+                if truncated_here(0, ends[l], steps_n[l], needed, false) {
                     stats.truncated_needed = stats.truncated_needed.max(needed);
                 }
                 out[l] = [0.0, 0.0, 0.0, f32::INFINITY];

@@ -6,7 +6,7 @@
 //! but the table clamps values to [0, 1], so a ray whose maximum reaches 1
 //! (whose minimum reaches 0) has its pixel and stops, as the shader's do.
 
-use super::avx2::{corners, int_lanes, lanes, voxel_axes, Spans, Texels};
+use super::avx2::{channel, corners, int_lanes, lanes, lanes_of, truncated_here, voxel_axes, Spans, Texels};
 use super::{Frame, Model, Stats, TILE};
 use std::arch::x86_64::*;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -62,10 +62,8 @@ pub unsafe fn project<T: Texels>(
     let mut stopped = zero;
     if let Some(before) = stopped_before.as_deref() {
         // The rays go on from their state (projections.wgsl `march_project`).
-        let lane_bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
-        let done = _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(*before as i32), lane_bit), lane_bit);
-        going = _mm256_andnot_ps(as_ps(done), going);
-        let column = |c: usize| _mm256_and_ps(_mm256_loadu_ps(std::array::from_fn::<f32, 8, _>(|l| out[l][c]).as_ptr()), rays.hit);
+        going = _mm256_andnot_ps(lanes_of(*before), going);
+        let column = |c: usize| _mm256_and_ps(channel(out, c), rays.hit);
         if f.model == Model::Average {
             (sum, length) = (column(0), column(1));
         } else {
@@ -121,8 +119,7 @@ pub unsafe fn project<T: Texels>(
             stats.samples += counts[l] as u64;
             let was_stopped = stopped[l].to_bits() != 0;
             let needed = needed[l] as u32;
-            // Reported by the brick holding the ray's last segment.
-            if !was_stopped && lo[l] < hi[l] && hi[l] == steps_n[l] && (steps_n[l] as u32) < needed {
+            if truncated_here(lo[l], hi[l], steps_n[l], needed, was_stopped) {
                 stats.truncated_needed = stats.truncated_needed.max(needed);
             }
             out[l] = match f.model {

@@ -137,6 +137,8 @@ impl GpuRenderer {
     pub fn set_brick(&mut self, index: usize, vol: &VolumeView, precision: Precision) -> Result<(), Error> {
         self.check_process()?;
         let ctx = self.ctx.clone();
+        // Kept for the native march where it may render the bricks (`native_bricks`).
+        let copy = if self.native_march { CpuCopy::Always } else { CpuCopy::No };
         let (slot, grid, bounds) = self.slot(index)?;
         let padded = grid.padded_range(index);
         let want = padded.map(|[lo, hi]| hi - lo);
@@ -153,7 +155,7 @@ impl GpuRenderer {
                 "precision 'fixed16' is for volumes in one texture: store bricks as 'float32' or 'float16'".into(),
             ));
         }
-        let mut gpu = VolumeGpu::upload(&ctx, vol, precision, CpuCopy::Always)?;
+        let mut gpu = VolumeGpu::upload(&ctx, vol, precision, copy)?;
         // Passes are planned over the brick's own box.
         gpu.bounds = core_box(&grid, &bounds, index);
         let bytes = gpu.uploaded();
@@ -244,7 +246,8 @@ impl GpuRenderer {
         // The eye in continuous voxel coordinates.
         let dims = DVec3::new(b.grid.dims[0] as f64, b.grid.dims[1] as f64, b.grid.dims[2] as f64);
         let eye = (camera.position - b.bounds.min) / b.bounds.extent() * dims;
-        let native = self.native_bricks(cfg);
+        // (Bricks loaded while the native march was off keep no texels for it.)
+        let native = self.native_bricks(cfg) && b.slots.iter().all(|s| s.volume.as_ref().is_none_or(|v| v.cpu.is_some()));
         let mut order = b.grid.front_to_back(eye);
         // (The native march takes back-to-front frames front to back.)
         if marches_back_to_front(cfg) && !native {
@@ -415,15 +418,14 @@ impl GpuRenderer {
             // (The isosurface's partial image is its pixels, as the shader's.)
             let keep = frame.params.keep_state == 1 && frame.cfg.model != Model::Isosurface;
             let target = Target::floats(out, w, h, Format::PREMULTIPLIED);
-            let rows = states.states().chunks(w);
-            for (row, pixels) in rows.enumerate() {
-                let px: Vec<[f32; 4]> = if keep {
-                    pixels.to_vec()
-                } else {
-                    (0..w).map(|x| states.pixel(row * w + x, model, &self.tables.rows)).collect()
-                };
+            let mut px = Vec::with_capacity(w);
+            for (row, pixels) in states.states().chunks(w).enumerate() {
+                px.clear();
+                if !keep {
+                    px.extend((0..w).map(|x| states.pixel(row * w + x, model, &self.tables.rows)));
+                }
                 // SAFETY: one thread writes the image, row by row.
-                unsafe { target.put(row, 0, &px) };
+                unsafe { target.put(row, 0, if keep { pixels } else { &px }) };
             }
             self.depth_ready = frame.cfg.model == Model::Isosurface;
             if self.depth_ready {
