@@ -29,6 +29,30 @@ pub trait Texels {
     unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4];
     /// The storage's first byte.
     fn base(&self) -> *const u8;
+    /// Whether the storage holds values alone, which `value_pair` reads.
+    const VALUES_ONLY: bool = false;
+    /// Eight lanes' values at texel offset `o` and at the next texel along
+    /// the last axis (`VALUES_ONLY` storages).
+    ///
+    /// # Safety
+    /// Needs AVX2, FMA and F16C; both texels must exist.
+    unsafe fn value_pair(&self, o: __m256i) -> (__m256, __m256) {
+        let _ = o;
+        unreachable!("only storages of values alone read value pairs")
+    }
+    /// Eight lanes' values at texel offset `o` and the next three texels
+    /// along the last axis (`VALUES_ONLY` storages).
+    ///
+    /// # Safety
+    /// Needs AVX2, FMA and F16C; the four texels must exist.
+    #[inline]
+    #[target_feature(enable = "avx2,fma,f16c")]
+    unsafe fn value_quad(&self, o: __m256i) -> [__m256; 4] {
+        // SAFETY: the caller's contract (values alone: an offset counts texels).
+        let later = _mm256_add_epi32(o, _mm256_set1_epi32(2));
+        let ((a, b), (c, d)) = unsafe { (self.value_pair(o), self.value_pair(later)) };
+        [a, b, c, d]
+    }
 }
 
 #[inline]
@@ -200,35 +224,46 @@ impl Texels for R32Float<'_> {
     #[inline]
     #[target_feature(enable = "avx2,fma,f16c")]
     unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4] {
+        // Where the upper corner is clamped onto the lower, the pair's
+        // second word is the next texel's (the storage holds one past the
+        // last): the lower one stands for both.
+        let clamped = _mm256_castsi256_ps(_mm256_cmpeq_epi32(offs[2][0], offs[2][1]));
+        let row = |o0: __m256i, o1: __m256i| {
+            // SAFETY: offsets address texels, and one follows the last (the caller's contract).
+            let (z0, z1) = unsafe { self.value_pair(_mm256_add_epi32(_mm256_add_epi32(o0, o1), offs[2][0])) };
+            lerp(z0, _mm256_blendv_ps(z1, z0, clamped), w[2])
+        };
+        let plane = |o0: __m256i| lerp(row(o0, offs[1][0]), row(o0, offs[1][1]), w[1]);
+        value_only(lerp(plane(offs[0][0]), plane(offs[0][1]), w[0]))
+    }
+    const VALUES_ONLY: bool = true;
+    #[inline]
+    #[target_feature(enable = "avx2,fma,f16c")]
+    unsafe fn value_pair(&self, o: __m256i) -> (__m256, __m256) {
         // Each ray's two corners along the last axis lie side by side: one
         // 64-bit gather element a pair, half the elements of a gather a
         // corner. Lanes (0, 1, 4, 5) and (2, 3, 6, 7) are gathered apart, so
         // that one shuffle of the two results' even (odd) words puts the
         // lower (upper) corners in lane order.
         let base = self.0.as_ptr() as *const f64;
-        let order = _mm256_setr_epi32(0, 1, 4, 5, 2, 3, 6, 7);
-        // Where the upper corner is clamped onto the lower, the pair's
-        // second word is the next texel's (the storage holds one past the
-        // last): the lower one stands for both.
-        let clamped = _mm256_castsi256_ps(_mm256_cmpeq_epi32(offs[2][0], offs[2][1]));
-        let pair = |o: __m256i| -> (__m256, __m256) {
-            let o = _mm256_permutevar8x32_epi32(o, order);
-            // SAFETY: offsets address texels, and one follows the last (the caller's contract).
-            let (a, b) = unsafe {
-                (
-                    _mm256_castpd_ps(_mm256_i32gather_pd::<4>(base, _mm256_castsi256_si128(o))),
-                    _mm256_castpd_ps(_mm256_i32gather_pd::<4>(base, _mm256_extracti128_si256::<1>(o))),
-                )
-            };
-            let lower = _mm256_shuffle_ps::<0x88>(a, b);
-            (lower, _mm256_blendv_ps(_mm256_shuffle_ps::<0xDD>(a, b), lower, clamped))
+        let o = _mm256_permutevar8x32_epi32(o, _mm256_setr_epi32(0, 1, 4, 5, 2, 3, 6, 7));
+        // SAFETY: the caller's contract.
+        let (a, b) = unsafe {
+            (
+                _mm256_castpd_ps(_mm256_i32gather_pd::<4>(base, _mm256_castsi256_si128(o))),
+                _mm256_castpd_ps(_mm256_i32gather_pd::<4>(base, _mm256_extracti128_si256::<1>(o))),
+            )
         };
-        let row = |o0: __m256i, o1: __m256i| {
-            let (z0, z1) = pair(_mm256_add_epi32(_mm256_add_epi32(o0, o1), offs[2][0]));
-            lerp(z0, z1, w[2])
-        };
-        let plane = |o0: __m256i| lerp(row(o0, offs[1][0]), row(o0, offs[1][1]), w[1]);
-        value_only(lerp(plane(offs[0][0]), plane(offs[0][1]), w[0]))
+        (_mm256_shuffle_ps::<0x88>(a, b), _mm256_shuffle_ps::<0xDD>(a, b))
+    }
+    #[inline]
+    #[target_feature(enable = "avx2,fma,f16c")]
+    unsafe fn value_quad(&self, o: __m256i) -> [__m256; 4] {
+        // A ray's four texels in one 128-bit load (four gathers would take 16 elements).
+        let at = int_lanes(o);
+        let base = self.0.as_ptr();
+        // SAFETY: the caller's contract.
+        transpose_rays(&std::array::from_fn(|l| unsafe { _mm_loadu_ps(base.add(at[l] as usize)) }))
     }
 }
 
@@ -250,22 +285,45 @@ unsafe fn word_codes<const SCALE: i32>(
     // Where the upper corner is clamped onto the lower, the word's next
     // code is the next texel's (or padding): the lower one stands for both.
     let clamped = _mm256_castsi256_ps(_mm256_cmpeq_epi32(offs[2][0], offs[2][1]));
-    let shift = _mm_cvtsi32_si128(8 * SCALE);
     let row = |o0: __m256i, o1: __m256i| {
         let o = _mm256_add_epi32(_mm256_add_epi32(o0, o1), offs[2][0]);
         // SAFETY: the caller's contract.
-        let word = unsafe { _mm256_i32gather_epi32::<SCALE>(base, o) };
-        let lower = code(word);
-        let upper = _mm256_blendv_ps(code(_mm256_srl_epi32(word, shift)), lower, clamped);
-        lerp(lower, upper, w[2])
+        let (lower, upper) = unsafe { word_pair::<SCALE>(base, o, &code) };
+        lerp(lower, _mm256_blendv_ps(upper, lower, clamped), w[2])
     };
     let plane = |o0: __m256i| lerp(row(o0, offs[1][0]), row(o0, offs[1][1]), w[1]);
     value_only(lerp(plane(offs[0][0]), plane(offs[0][1]), w[0]))
 }
 
+/// The codes `SCALE` bytes wide at offsets `o` and after them, from the
+/// 32-bit word at each offset.
+///
+/// # Safety
+/// The offsets address texels, and 4 - SCALE bytes follow each.
+#[inline]
+#[target_feature(enable = "avx2,fma,f16c")]
+unsafe fn word_pair<const SCALE: i32>(
+    base: *const i32,
+    o: __m256i,
+    code: impl Fn(__m256i) -> __m256,
+) -> (__m256, __m256) {
+    // SAFETY: the caller's contract.
+    let word = unsafe { _mm256_i32gather_epi32::<SCALE>(base, o) };
+    (code(word), code(_mm256_srl_epi32(word, _mm_cvtsi32_si128(8 * SCALE))))
+}
+
 /// Codes read as the low halves of 32-bit words (the storage holds one
 /// code past the last texel).
 pub struct R16Snorm<'a>(pub &'a [i16]);
+
+impl R16Snorm<'_> {
+    /// A code's float: the low half, sign extended.
+    #[inline]
+    #[target_feature(enable = "avx2,fma,f16c")]
+    fn code(x: __m256i) -> __m256 {
+        _mm256_cvtepi32_ps(_mm256_srai_epi32::<16>(_mm256_slli_epi32::<16>(x)))
+    }
+}
 
 impl Texels for R16Snorm<'_> {
     const PER_TEXEL: usize = 1;
@@ -277,15 +335,43 @@ impl Texels for R16Snorm<'_> {
     #[inline]
     #[target_feature(enable = "avx2,fma,f16c")]
     unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4] {
-        let signed = |x| _mm256_cvtepi32_ps(_mm256_srai_epi32::<16>(_mm256_slli_epi32::<16>(x)));
         // SAFETY: offsets address texels, and one code follows the last.
-        unsafe { word_codes::<2>(self.0.as_ptr() as *const i32, offs, w, signed) }
+        unsafe { word_codes::<2>(self.0.as_ptr() as *const i32, offs, w, |x| Self::code(x)) }
+    }
+    const VALUES_ONLY: bool = true;
+    #[inline]
+    #[target_feature(enable = "avx2,fma,f16c")]
+    unsafe fn value_pair(&self, o: __m256i) -> (__m256, __m256) {
+        // SAFETY: the caller's contract.
+        unsafe { word_pair::<2>(self.0.as_ptr() as *const i32, o, |x| Self::code(x)) }
+    }
+    #[inline]
+    #[target_feature(enable = "avx2,fma,f16c")]
+    unsafe fn value_quad(&self, o: __m256i) -> [__m256; 4] {
+        // A ray's four codes in one 64-bit load.
+        let at = int_lanes(o);
+        let base = self.0.as_ptr();
+        // SAFETY: the caller's contract.
+        let codes = |l: usize| unsafe { _mm_loadl_epi64(base.add(at[l] as usize) as *const __m128i) };
+        transpose_rays(&std::array::from_fn(|l| {
+            let x = codes(l);
+            _mm_cvtepi32_ps(_mm_cvtepi16_epi32(x))
+        }))
     }
 }
 
 /// 8-bit codes (0..=255 for 0..=1) read as the low bytes of 32-bit words
 /// (the storage holds three bytes past the last texel).
 pub struct R8Unorm<'a>(pub &'a [u8]);
+
+impl R8Unorm<'_> {
+    /// A code's float: the low byte.
+    #[inline]
+    #[target_feature(enable = "avx2,fma,f16c")]
+    fn code(x: __m256i) -> __m256 {
+        _mm256_cvtepi32_ps(_mm256_and_si256(x, _mm256_set1_epi32(0xff)))
+    }
+}
 
 impl Texels for R8Unorm<'_> {
     const PER_TEXEL: usize = 1;
@@ -297,15 +383,44 @@ impl Texels for R8Unorm<'_> {
     #[inline]
     #[target_feature(enable = "avx2,fma,f16c")]
     unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4] {
-        let byte = |x| _mm256_cvtepi32_ps(_mm256_and_si256(x, _mm256_set1_epi32(0xff)));
         // SAFETY: offsets address texels, and three bytes follow the last.
-        unsafe { word_codes::<1>(self.0.as_ptr() as *const i32, offs, w, byte) }
+        unsafe { word_codes::<1>(self.0.as_ptr() as *const i32, offs, w, |x| Self::code(x)) }
+    }
+    const VALUES_ONLY: bool = true;
+    #[inline]
+    #[target_feature(enable = "avx2,fma,f16c")]
+    unsafe fn value_pair(&self, o: __m256i) -> (__m256, __m256) {
+        // SAFETY: the caller's contract.
+        unsafe { word_pair::<1>(self.0.as_ptr() as *const i32, o, |x| Self::code(x)) }
+    }
+    #[inline]
+    #[target_feature(enable = "avx2,fma,f16c")]
+    unsafe fn value_quad(&self, o: __m256i) -> [__m256; 4] {
+        // One word holds all four codes.
+        // SAFETY: the caller's contract.
+        let word = unsafe { _mm256_i32gather_epi32::<1>(self.0.as_ptr() as *const i32, o) };
+        let byte = |x| _mm256_cvtepi32_ps(_mm256_and_si256(x, _mm256_set1_epi32(0xff)));
+        [
+            byte(word),
+            byte(_mm256_srli_epi32::<8>(word)),
+            byte(_mm256_srli_epi32::<16>(word)),
+            byte(_mm256_srli_epi32::<24>(word)),
+        ]
     }
 }
 
 /// 16-bit codes (0..=65535 for 0..=1) read as the low halves of 32-bit
 /// words (the storage holds one code past the last texel).
 pub struct R16Unorm<'a>(pub &'a [u16]);
+
+impl R16Unorm<'_> {
+    /// A code's float: the low half.
+    #[inline]
+    #[target_feature(enable = "avx2,fma,f16c")]
+    fn code(x: __m256i) -> __m256 {
+        _mm256_cvtepi32_ps(_mm256_and_si256(x, _mm256_set1_epi32(0xffff)))
+    }
+}
 
 impl Texels for R16Unorm<'_> {
     const PER_TEXEL: usize = 1;
@@ -317,9 +432,28 @@ impl Texels for R16Unorm<'_> {
     #[inline]
     #[target_feature(enable = "avx2,fma,f16c")]
     unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4] {
-        let half = |x| _mm256_cvtepi32_ps(_mm256_and_si256(x, _mm256_set1_epi32(0xffff)));
         // SAFETY: offsets address texels, and one code follows the last.
-        unsafe { word_codes::<2>(self.0.as_ptr() as *const i32, offs, w, half) }
+        unsafe { word_codes::<2>(self.0.as_ptr() as *const i32, offs, w, |x| Self::code(x)) }
+    }
+    const VALUES_ONLY: bool = true;
+    #[inline]
+    #[target_feature(enable = "avx2,fma,f16c")]
+    unsafe fn value_pair(&self, o: __m256i) -> (__m256, __m256) {
+        // SAFETY: the caller's contract.
+        unsafe { word_pair::<2>(self.0.as_ptr() as *const i32, o, |x| Self::code(x)) }
+    }
+    #[inline]
+    #[target_feature(enable = "avx2,fma,f16c")]
+    unsafe fn value_quad(&self, o: __m256i) -> [__m256; 4] {
+        // A ray's four codes in one 64-bit load.
+        let at = int_lanes(o);
+        let base = self.0.as_ptr();
+        // SAFETY: the caller's contract.
+        let codes = |l: usize| unsafe { _mm_loadl_epi64(base.add(at[l] as usize) as *const __m128i) };
+        transpose_rays(&std::array::from_fn(|l| {
+            let x = codes(l);
+            _mm_cvtepi32_ps(_mm_cvtepu16_epi32(x))
+        }))
     }
 }
 
@@ -406,6 +540,13 @@ impl Texels for R16Float<'_> {
     unsafe fn trilinear(&self, offs: &[[__m256i; 2]; 3], w: &[__m256; 3]) -> [__m256; 4] {
         // SAFETY: offsets address texels, and one value follows the last.
         unsafe { word_codes::<2>(self.0.as_ptr() as *const i32, offs, w, |x| half_floats(x)) }
+    }
+    const VALUES_ONLY: bool = true;
+    #[inline]
+    #[target_feature(enable = "avx2,fma,f16c")]
+    unsafe fn value_pair(&self, o: __m256i) -> (__m256, __m256) {
+        // SAFETY: the caller's contract.
+        unsafe { word_pair::<2>(self.0.as_ptr() as *const i32, o, |x| half_floats(x)) }
     }
 }
 
@@ -1385,6 +1526,91 @@ pub(super) fn ray_alpha(tau: f32, trans: f32, emission: bool) -> f32 {
     }
 }
 
+/// The interpolated values' differences T(u + e_k) - T(u - e_k) one voxel
+/// either side of voxel coordinates `u` along each numpy axis k.
+///
+/// Six trilinear reads take 24 pairs of texels along the last axis. Values
+/// alone share them: the four rows of the cell around `u`, each read as
+/// four texels from the one before the cell (`value_quad`), give the last
+/// axis's differences and the rows the other two axes share; those read
+/// four pairs more each. Each difference is interpolated in the trilinear
+/// read's order from the same texels, with the cell's own weights where the
+/// six reads take those of u + 1 and u - 1 (the same but for their
+/// rounding). Eight lanes of which one's cell touches the storage's ends
+/// along the last axis (where texels are clamped) take the six reads.
+///
+/// # Safety
+/// Needs AVX2, FMA and F16C, and `tex` the padding its reads need.
+#[inline]
+#[target_feature(enable = "avx2,fma,f16c")]
+unsafe fn differences<T: Texels>(tex: &T, u: &[__m256; 3], hi: &[__m256i; 3], stride: &[__m256i; 3]) -> [__m256; 3] {
+    let (zi, onei, one) = (_mm256_setzero_si256(), _mm256_set1_epi32(1), _mm256_set1_ps(1.0));
+    let six_reads = || -> [__m256; 3] {
+        std::array::from_fn(|k| {
+            let (mut up, mut down) = (*u, *u);
+            up[k] = _mm256_add_ps(up[k], one);
+            down[k] = _mm256_sub_ps(down[k], one);
+            let ((ou, wu), (od, wd)) = (corners(&up, hi, stride), corners(&down, hi, stride));
+            // SAFETY: the offsets are clamped into the texture.
+            unsafe { _mm256_sub_ps(tex.trilinear(&ou, &wu)[0], tex.trilinear(&od, &wd)[0]) }
+        })
+    };
+    if !T::VALUES_ONLY {
+        return six_reads();
+    }
+    let fl = u.map(|x| _mm256_floor_ps(x));
+    let b = fl.map(|x| _mm256_cvttps_epi32(x));
+    // Texels b - 1 to b + 2 along the last axis, unclamped.
+    let last = _mm256_sub_epi32(hi[2], onei);
+    let inside = _mm256_and_si256(_mm256_cmpgt_epi32(b[2], zi), _mm256_cmpgt_epi32(last, b[2]));
+    if _mm256_movemask_epi8(inside) != -1 {
+        return six_reads();
+    }
+    let w: [__m256; 3] = std::array::from_fn(|k| _mm256_sub_ps(u[k], fl[k]));
+    // Offsets of texels b - 1, b, b + 1 and b + 2 along numpy axes 0 and 1 (clamped, as `corners` clamps).
+    let along = |k: usize| -> [__m256i; 4] {
+        std::array::from_fn(|j| {
+            let t = _mm256_add_epi32(b[k], _mm256_set1_epi32(j as i32 - 1));
+            _mm256_mullo_epi32(_mm256_min_epi32(_mm256_max_epi32(t, zi), hi[k]), stride[k])
+        })
+    };
+    let (o0, o1) = (along(0), along(1));
+    let o2 = _mm256_mullo_epi32(b[2], stride[2]);
+    // SAFETY: the offsets address texels (the caller's contract), and texel
+    // b + 2 exists along the last axis.
+    let row = |j0: usize, j1: usize| unsafe {
+        let (lo, hi) = tex.value_pair(_mm256_add_epi32(_mm256_add_epi32(o0[j0], o1[j1]), o2));
+        lerp(lo, hi, w[2])
+    };
+    // The cell's rows (j0, j1 in 1..=2) along the last axis from b - 1:
+    // down, own and up rows.
+    let mut cell = [[[_mm256_setzero_ps(); 3]; 2]; 2];
+    for (a, j0) in [1, 2].into_iter().enumerate() {
+        for (c, j1) in [1, 2].into_iter().enumerate() {
+            let from = _mm256_sub_epi32(_mm256_add_epi32(_mm256_add_epi32(o0[j0], o1[j1]), o2), stride[2]);
+            // SAFETY: as above; texels b - 1 to b + 2 exist along the last axis.
+            let t = unsafe { tex.value_quad(from) };
+            cell[a][c] = [lerp(t[0], t[1], w[2]), lerp(t[1], t[2], w[2]), lerp(t[2], t[3], w[2])];
+        }
+    }
+    // Rows [j0][j1] interpolated as the trilinear read does: along numpy axis 1, then 0.
+    let tri = |r: [[__m256; 2]; 2]| lerp(lerp(r[0][0], r[0][1], w[1]), lerp(r[1][0], r[1][1], w[1]), w[0]);
+    let own = |a: usize, c: usize| cell[a][c][1];
+    let g2 = _mm256_sub_ps(
+        tri(std::array::from_fn(|a| std::array::from_fn(|c| cell[a][c][2]))),
+        tri(std::array::from_fn(|a| std::array::from_fn(|c| cell[a][c][0]))),
+    );
+    let g1 = _mm256_sub_ps(
+        tri([[own(0, 1), row(1, 3)], [own(1, 1), row(2, 3)]]),
+        tri([[row(1, 0), own(0, 0)], [row(2, 0), own(1, 0)]]),
+    );
+    let g0 = _mm256_sub_ps(
+        tri([[own(1, 0), own(1, 1)], [row(3, 1), row(3, 2)]]),
+        tri([[row(0, 1), row(0, 2)], [own(0, 0), own(0, 1)]]),
+    );
+    [g0, g1, g2]
+}
+
 /// (value, gradient) at voxel coordinates `u` from central differences one
 /// voxel apart of the interpolated values (sampling.wgsl `gradient`: zero
 /// where one is NaN, scaled by its largest component, then by the
@@ -1405,14 +1631,8 @@ pub(super) unsafe fn gradient_at<T: Texels>(
 ) -> [__m256; 4] {
     let set = _mm256_set1_ps;
     let (zero, one) = (_mm256_setzero_ps(), set(1.0));
-    let g: [__m256; 3] = std::array::from_fn(|k| {
-        let (mut up, mut down) = (*u, *u);
-        up[k] = _mm256_add_ps(up[k], one);
-        down[k] = _mm256_sub_ps(down[k], one);
-        let ((ou, wu), (od, wd)) = (corners(&up, hi, stride), corners(&down, hi, stride));
-        // SAFETY: the offsets are clamped into the texture.
-        unsafe { _mm256_sub_ps(tex.trilinear(&ou, &wu)[0], tex.trilinear(&od, &wd)[0]) }
-    });
+    // SAFETY: the caller's contract.
+    let g = unsafe { differences(tex, u, hi, stride) };
     let ordered = _mm256_and_ps(_mm256_cmp_ps::<_CMP_ORD_Q>(g[0], g[1]), _mm256_cmp_ps::<_CMP_ORD_Q>(g[2], g[2]));
     let m = _mm256_max_ps(_mm256_max_ps(abs(g[0]), abs(g[1])), abs(g[2]));
     let some = _mm256_and_ps(ordered, _mm256_cmp_ps::<_CMP_GT_OQ>(m, zero));
@@ -1627,6 +1847,101 @@ mod tests {
                 let tol = 4e-7 * want + 6e-8 / (1.0 - x as f64) + (x as f64).powi(4) / 3.0;
                 assert!((got as f64 - want).abs() <= tol, "a = {x}: {got} against {want}");
             }
+        }
+    }
+
+    /// T(u + e_k) - T(u - e_k) in float64 (T: the trilinear interpolant of
+    /// `value` at cell-centred coordinates, corners clamped into `dims`).
+    fn difference_f64(value: &dyn Fn(usize) -> f64, dims: [usize; 3], u: [f64; 3], k: usize) -> f64 {
+        let at = |p: [f64; 3]| {
+            let mut sum = 0.0;
+            for corner in 0..8 {
+                let (mut i, mut weight) = (0, 1.0);
+                for a in 0..3 {
+                    let b = p[a].floor();
+                    let (t, up) = (p[a] - b, (corner >> (2 - a)) & 1);
+                    let c = (b as i64 + up as i64).clamp(0, dims[a] as i64 - 1) as usize;
+                    i = i * dims[a] + c;
+                    weight *= if up == 1 { t } else { 1.0 - t };
+                }
+                sum += weight * value(i);
+            }
+            sum
+        };
+        let (mut up, mut down) = (u, u);
+        up[k] += 1.0;
+        down[k] -= 1.0;
+        at(up) - at(down)
+    }
+
+    /// Each values-only storage's central differences, inside the storage
+    /// (the shared rows) and across its ends (clamped lanes: six trilinear
+    /// reads), against float64.
+    #[test]
+    fn central_differences_of_every_value_storage_match_f64() {
+        if !super::super::available() {
+            return;
+        }
+        let dims = [6, 7, 9];
+        let n: usize = dims.iter().product();
+        let bits = |i: usize| crate::model::hash32(i as u32 + 77);
+        // Normal binary16 values of either sign, exponents 2^-14 to 2^14.
+        let half = |i: usize| (bits(i) as u16 & 0x83ff) | (((bits(i) >> 16) % 29 + 1) as u16) << 10;
+        let half_value = |h: u16| {
+            let (sign, e, m) = ((h >> 15) as i32, ((h >> 10) & 0x1f) as i32, (h & 0x3ff) as f64);
+            (1.0 - 2.0 * sign as f64) * 2f64.powi(e - 15) * (1.0 + m / 1024.0)
+        };
+        let mut r8: Vec<u8> = (0..n).map(|i| bits(i) as u8).collect();
+        r8.extend([0; 3]);
+        let r16: Vec<u16> = (0..=n).map(|i| bits(i) as u16).collect();
+        let s16: Vec<i16> = (0..=n).map(|i| (bits(i) as i16).max(-32767)).collect();
+        let f16: Vec<u16> = (0..=n).map(half).collect();
+        let f32s: Vec<f32> = (0..=n).map(|i| bits(i) as f32 / 1024.0 - 2.0e6).collect();
+        let mut k = 0u32;
+        type Differences<'a> = &'a dyn Fn(&[__m256; 3]) -> [__m256; 3];
+        let mut check = |name: &str, tex: Differences, value: &dyn Fn(usize) -> f64, inside: bool| {
+            let largest = (0..n).map(|i| value(i).abs()).fold(0.0, f64::max);
+            for _ in 0..100 {
+                let mut u = [[0f32; 8]; 3];
+                for (a, axis) in u.iter_mut().enumerate() {
+                    for x in axis.iter_mut() {
+                        k += 1;
+                        let r = (crate::model::hash32(k) >> 8) as f32 / 16_777_216.0;
+                        // Inside: cells b = 1 to d - 3 along the last axis.
+                        *x = if inside && a == 2 {
+                            1.0 + r * (dims[a] as f32 - 3.0)
+                        } else {
+                            r * (dims[a] as f32 + 1.0) - 0.5
+                        };
+                    }
+                }
+                // SAFETY: AVX2, FMA and F16C are available.
+                let got = tex(&unsafe { u.map(|x| _mm256_loadu_ps(x.as_ptr())) }).map(|x| unsafe { lanes(x) });
+                for (c, got) in got.iter().enumerate() {
+                    for l in 0..8 {
+                        let want = difference_f64(value, dims, [0, 1, 2].map(|a| u[a][l] as f64), c);
+                        let close = (got[l] as f64 - want).abs() <= 4e-6 * largest;
+                        assert!(close, "{name}, axis {c}, lane {l} (inside {inside}): {} against {want}", got[l]);
+                    }
+                }
+            }
+        };
+        fn with<T: Texels>(tex: &T, dims: [usize; 3]) -> impl Fn(&[__m256; 3]) -> [__m256; 3] + '_ {
+            move |u| {
+                // SAFETY: AVX2, FMA and F16C are available; the storage holds what its reads need.
+                unsafe {
+                    let hi = dims.map(|d| _mm256_set1_epi32(d as i32 - 1));
+                    let stride = tex.strides(dims).map(|s| _mm256_set1_epi32(s));
+                    differences(tex, u, &hi, &stride)
+                }
+            }
+        }
+        for inside in [true, false] {
+            check("R8Unorm", &with(&R8Unorm(&r8), dims), &|i| r8[i] as f64, inside);
+            check("R16Unorm", &with(&R16Unorm(&r16), dims), &|i| r16[i] as f64, inside);
+            check("R16Snorm", &with(&R16Snorm(&s16), dims), &|i| s16[i] as f64, inside);
+            check("R16Float", &with(&R16Float(&f16), dims), &|i| half_value(f16[i]), inside);
+            check("R32Float", &with(&R32Float(&f32s), dims), &|i| f32s[i] as f64, inside);
         }
     }
 }
