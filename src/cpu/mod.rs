@@ -265,6 +265,13 @@ pub struct Frame<'a> {
     /// bytes, where segments take their cells' rates; None: the frame's
     /// rate everywhere.
     pub majorants: Option<&'a [u8]>,
+    /// Maximum (minimum) intensity projections: each cell's largest
+    /// (smallest) value a sample in it can read (`MinMaxGrid::value_bounds`),
+    /// the same over the cube of cells of a radius (`Cells::exit`'s `cube`)
+    /// around it and that radius, cells as `cells`, and the grid's size. A
+    /// ray whose maximum (minimum) already reaches a bound leaps out of the
+    /// cell, or of the cube.
+    pub bounds: Option<(Vec<f32>, (Vec<f32>, i32), [usize; 3])>,
 }
 
 /// What a native frame took.
@@ -837,6 +844,7 @@ pub(crate) mod test_rays {
             unbiased: false,
             back_to_front: false,
             majorants: None,
+            bounds: None,
         }
     }
 }

@@ -2,11 +2,15 @@
 //! (shaders/projections.wgsl): eight rays in the lanes of AVX2 registers,
 //! one trilinear read at each segment's midpoint, NaN values passed over,
 //! and the pixel the transfer function's premultiplied colour of the value
-//! projected. No cell is leapt: every value counts, whatever its opacity;
-//! but the table clamps values to [0, 1], so a ray whose maximum reaches 1
-//! (whose minimum reaches 0) has its pixel and stops, as the shader's do.
+//! projected. Every value counts, whatever its opacity; but the table
+//! clamps values to [0, 1], so a ray whose maximum reaches 1 (whose minimum
+//! reaches 0) has its pixel and stops, as the shader's do. A maximum
+//! (minimum) projection's ray leaps over a cell whose values cannot pass
+//! its maximum (minimum) so far (`Frame::bounds`): the same pixel from
+//! fewer reads. The shader reads every segment.
 
 use super::avx2::{channel, corners, int_lanes, lanes, lanes_of, truncated_here, voxel_axes, Spans, Texels};
+use super::cells::Cells;
 use super::{Frame, Model, Stats, TILE};
 use std::arch::x86_64::*;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -71,6 +75,10 @@ pub unsafe fn project<T: Texels>(
             seen = _mm256_cmp_ps::<_CMP_GT_OQ>(column(1), zero);
         }
     }
+    // The cells' bounds, where rays leap.
+    let leaps = f.bounds.as_ref().filter(|_| f.model != Model::Average);
+    let cells = leaps.map(|(_, _, grid)| Cells::new(p, start, per, *grid, false));
+    let h = set(p.step_size);
     let mut steps = 0u32;
     while _mm256_movemask_ps(_mm256_andnot_ps(stopped, going)) != 0 {
         let active = _mm256_andnot_ps(stopped, going);
@@ -80,7 +88,38 @@ pub unsafe fn project<T: Texels>(
         }
         let (start_at, seg) = spans.span(i);
         let mid = _mm256_fmadd_ps(seg, set(0.5), start_at);
-        let reads = _mm256_and_ps(active, _mm256_cmp_ps::<_CMP_GT_OQ>(seg, zero));
+        // Lanes that leap, and the segment each goes on from.
+        let (mut leap, mut next) = (zero, i);
+        if let (Some((bounds, (wide, reach), _)), Some(cells)) = (leaps, cells.as_ref()) {
+            let can = _mm256_and_ps(active, seen);
+            if _mm256_movemask_ps(can) != 0 {
+                let cell = cells.at(mid);
+                let passed = |bounds: &[f32]| {
+                    // SAFETY: the cell is clamped into the grid, a bound a cell.
+                    let bound = unsafe { _mm256_i32gather_ps::<4>(bounds.as_ptr(), cell.index) };
+                    if f.model == Model::Mip {
+                        _mm256_cmp_ps::<_CMP_LE_OQ>(bound, best)
+                    } else {
+                        _mm256_cmp_ps::<_CMP_GE_OQ>(bound, best)
+                    }
+                };
+                leap = _mm256_and_ps(can, passed(bounds));
+                if _mm256_movemask_ps(leap) != 0 {
+                    // Out of the cube where its bound is passed too, else
+                    // the cell; to the first segment whose midpoint lies past
+                    // it, a thousandth of a step early (compositing.wgsl `segment_past`).
+                    let far = _mm256_castps_si256(passed(wide));
+                    let cube = _mm256_blendv_epi8(_mm256_set1_epi32(1), _mm256_set1_epi32(*reach), far);
+                    let exit = cells.exit(&cell, cube);
+                    let past = _mm256_sub_ps(_mm256_div_ps(_mm256_add_ps(mid, exit), h), set(0.5));
+                    let kf = _mm256_ceil_ps(_mm256_sub_ps(past, _mm256_add_ps(rays.shift, set(1e-3))));
+                    let after = _mm256_cvtepi32_ps(_mm256_add_epi32(i, _mm256_set1_epi32(1)));
+                    let kf = _mm256_min_ps(_mm256_max_ps(kf, after), _mm256_cvtepi32_ps(rays.hi));
+                    next = _mm256_cvttps_epi32(kf);
+                }
+            }
+        }
+        let reads = _mm256_and_ps(_mm256_andnot_ps(leap, active), _mm256_cmp_ps::<_CMP_GT_OQ>(seg, zero));
         taken = _mm256_sub_epi32(taken, _mm256_castps_si256(reads));
         let u: [__m256; 3] = std::array::from_fn(|k| _mm256_fmadd_ps(per[k], mid, start[k]));
         let (offs, w) = corners(&u, &hi, &stride);
@@ -104,6 +143,7 @@ pub unsafe fn project<T: Texels>(
             }
         }
         i = _mm256_sub_epi32(i, _mm256_castps_si256(going));
+        i = _mm256_castps_si256(_mm256_blendv_ps(as_ps(i), as_ps(next), leap));
         going = _mm256_and_ps(going, as_ps(_mm256_cmpgt_epi32(rays.hi, i)));
     }
 

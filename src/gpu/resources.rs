@@ -42,6 +42,9 @@ pub struct VolumeGpu {
     pub bounds: Bounds,
     pub bytes: u64,
     pub grid: MinMaxGrid,
+    /// The grid's ranges over cubes of cells around each
+    /// (`PROJECTION_REACH`), made at the first projection that leaps.
+    pub wide_grid: std::sync::OnceLock<MinMaxGrid>,
     /// What the shader's texel value stands for: the sampled value is
     /// `stored.apply(texel.r)` (the identity but for fixed-point storage).
     pub stored: ValueMap,
@@ -153,7 +156,18 @@ fn available_memory() -> Option<u64> {
     Some(kib * 1024)
 }
 
+/// Cells either side of a cell over which a maximum (minimum) projection
+/// on the native march also bounds the values: where the bound shows a
+/// ray's maximum cannot grow, it leaps out of that cube of 7^3 cells (24
+/// voxels or more ahead) instead of out of the cell.
+pub const PROJECTION_REACH: usize = 3;
+
 impl VolumeGpu {
+    /// The grid's ranges widened by `PROJECTION_REACH` cells, made once.
+    pub fn wide_grid(&self) -> &MinMaxGrid {
+        self.wide_grid.get_or_init(|| self.grid.clone().widened([PROJECTION_REACH; 3]))
+    }
+
     /// Uploads `vol`, storing float data at `precision`. `native`: keep the
     /// texels for the native march where it runs (`cpu_copy`), and make
     /// the texture from them when a frame on the shader needs it.
@@ -268,6 +282,7 @@ impl VolumeGpu {
             bounds: vol.bounds,
             bytes: bytes.len() as u64 + normal_bytes,
             grid,
+            wide_grid: Default::default(),
             stored: ValueMap::IDENTITY,
             cpu,
         })
@@ -356,6 +371,7 @@ impl VolumeGpu {
             bounds: vol.bounds,
             bytes: 0,
             grid,
+            wide_grid: Default::default(),
             stored: ValueMap::IDENTITY,
             cpu: None,
         }

@@ -9,7 +9,7 @@ use crate::gpu::params::{world_unit, FrameInputs, Params};
 use crate::gpu::pipeline::{dispatch_groups, Layout, Variant};
 use crate::gpu::plan::{plan, PassPlan};
 use crate::gpu::readback::read_buffers;
-use crate::gpu::resources::{readback_buffer, PreintKey, RayState};
+use crate::gpu::resources::{readback_buffer, PreintKey, RayState, PROJECTION_REACH};
 use crate::preintegrate;
 use crate::integrate::max_extinction;
 use crate::output::{Format, Image, Pixels, Target};
@@ -181,6 +181,12 @@ impl GpuRenderer {
             unbiased: variant.unbiased,
             back_to_front: variant.unbiased && variant.back_to_front,
             majorants: (variant.unbiased && variant.cell_rates && cells).then_some(&occ.majorants[..]),
+            bounds: matches!(model, CpuModel::Mip | CpuModel::MinIp).then(|| {
+                let vol = self.volume.as_ref().expect("the volume keeps its texels");
+                let upper = model == CpuModel::Mip;
+                let wide = (vol.wide_grid().value_bounds(self.value_map, upper), PROJECTION_REACH as i32 + 1);
+                (vol.grid.value_bounds(self.value_map, upper), wide, vol.grid.dims)
+            }),
         }
     }
 
