@@ -106,9 +106,10 @@ def table(title, rows, name, args):
                 device=VolumeRenderer(8, 8).device,
                 note=f"{title}, {args.size}x{args.size}, balanced, isometric camera at distance 3; median of "
                 f"{args.frames} frames after a warm-up. ns per sample: frame time over samples taken (shadow "
-                "samples included); mip's (one fetch and a max per sample) is what a sample costs this device "
-                "at the least. engine: native, the CPU march of src/cpu (where the adapter is a CPU); gpu, the "
-                "shader.")
+                "samples included; the native march's maximum and minimum projections leap cells that cannot "
+                "change their pixel, uncounted); average's (one fetch and a sum per sample) is what a sample costs "
+                "this device at the least. engine: native, the CPU march of src/cpu (where the adapter is a CPU); "
+                "gpu, the shader.")
 
 
 def main():
