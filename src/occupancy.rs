@@ -329,14 +329,14 @@ impl MinMaxGrid {
     }
 
     /// Per cell, the largest (`upper`) or smallest value a sample in it can
-    /// read, mapped by `map`, moved outwards by 1e-6 of it and 1e-5 of the
-    /// cell's mapped range: the march interpolates and maps in f32, and
-    /// rounding moves an interpolated value past its corners' range by no
-    /// more than about 1e-7 of that range (a uniform cell's samples are its
-    /// value), and a mapped one by about 1e-7 of it. Cells holding only
-    /// NaN: -inf (`upper`) or +inf, which no value passes. A projection's
-    /// ray that has seen a value at or beyond its cell's bound has nothing
-    /// to read in that cell.
+    /// read, mapped by `map`, moved outwards by 1e-5 of the cell's mapped
+    /// range: the march interpolates in f32, and rounding moves an
+    /// interpolated value past its corners' range by no more than about
+    /// 1e-7 of that range (a uniform cell's samples are its value). The
+    /// march maps in f32 too, which moves a value by about 1e-7 of it: a
+    /// projection leaps where its value so far passes a bound less 1e-6 of
+    /// itself. Cells holding only NaN: -inf (`upper`) or +inf, which every
+    /// value passes.
     pub fn value_bounds(&self, map: ValueMap, upper: bool) -> Vec<f32> {
         let (nothing, outwards) = if upper { (f32::NEG_INFINITY, 1.0) } else { (f32::INFINITY, -1.0) };
         self.min
@@ -348,7 +348,7 @@ impl MinMaxGrid {
                 }
                 let (lo, hi) = (map.apply(lo as f64), map.apply(hi as f64));
                 let b = if upper { hi } else { lo };
-                (b + outwards * (1e-6 * b.abs() + 1e-5 * (hi - lo))) as f32
+                (b + outwards * 1e-5 * (hi - lo)) as f32
             })
             .collect()
     }
@@ -968,13 +968,13 @@ mod tests {
         g.dims = [1, 1, 3];
         let map = ValueMap::new(1.0 / 2000.0, 0.5).unwrap();
         let (upper, lower) = (g.value_bounds(map, true), g.value_bounds(map, false));
-        // A uniform cell's samples are its value: no margin but 1e-6 of it.
+        // A uniform cell's samples are its value: no margin.
         assert_eq!(upper[0], 0.0);
         assert_eq!(lower[0], 0.0);
-        // Tissue maps to 0.6..0.78: moved out by 1e-6 of the bound and 1e-5 of 0.18.
-        let (hi, lo) = (0.78 + 0.78e-6 + 1.8e-6, 0.6 - 0.6e-6 - 1.8e-6);
-        assert!((upper[1] as f64 - hi).abs() < 1e-7 && upper[1] as f64 > 0.78 + 2e-6, "{}", upper[1]);
-        assert!((lower[1] as f64 - lo).abs() < 1e-7 && (lower[1] as f64) < 0.6 - 2e-6, "{}", lower[1]);
+        // Tissue maps to 0.6..0.78: moved out by 1e-5 of 0.18.
+        let (hi, lo) = (0.78 + 1.8e-6, 0.6 - 1.8e-6);
+        assert!((upper[1] as f64 - hi).abs() < 1e-7 && upper[1] as f64 > 0.78 + 1.5e-6, "{}", upper[1]);
+        assert!((lower[1] as f64 - lo).abs() < 1e-7 && (lower[1] as f64) < 0.6 - 1.5e-6, "{}", lower[1]);
         // No value passes a NaN cell's bounds the wrong way: every ray leaps it.
         assert_eq!((upper[2], lower[2]), (f32::NEG_INFINITY, f32::INFINITY));
     }

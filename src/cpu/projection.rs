@@ -94,13 +94,15 @@ pub unsafe fn project<T: Texels>(
             let can = _mm256_and_ps(active, seen);
             if _mm256_movemask_ps(can) != 0 {
                 let cell = cells.at(mid);
+                // The value so far, less 1e-6 of itself for the f32 mapping (`value_bounds`).
+                let slack = _mm256_mul_ps(_mm256_andnot_ps(set(-0.0), best), set(1e-6));
                 let passed = |bounds: &[f32]| {
                     // SAFETY: the cell is clamped into the grid, a bound a cell.
                     let bound = unsafe { _mm256_i32gather_ps::<4>(bounds.as_ptr(), cell.index) };
                     if f.model == Model::Mip {
-                        _mm256_cmp_ps::<_CMP_LE_OQ>(bound, best)
+                        _mm256_cmp_ps::<_CMP_LE_OQ>(bound, _mm256_add_ps(best, slack))
                     } else {
-                        _mm256_cmp_ps::<_CMP_GE_OQ>(bound, best)
+                        _mm256_cmp_ps::<_CMP_GE_OQ>(bound, _mm256_sub_ps(best, slack))
                     }
                 };
                 leap = _mm256_and_ps(can, passed(bounds));
