@@ -312,6 +312,20 @@ unsafe fn word_pair<const SCALE: i32>(
     (code(word), code(_mm256_srl_epi32(word, _mm_cvtsi32_si128(8 * SCALE))))
 }
 
+/// Each lane's four 16-bit codes from texel offset `o` on, in one 64-bit
+/// load a ray, made floats by `code` (four a 128-bit register).
+///
+/// # Safety
+/// The four codes from each offset exist.
+#[inline]
+#[target_feature(enable = "avx2,fma,f16c")]
+unsafe fn code_quads(base: *const u16, o: __m256i, code: impl Fn(__m128i) -> __m128) -> [__m256; 4] {
+    let at = int_lanes(o);
+    // SAFETY: the caller's contract.
+    let load = |l: usize| unsafe { _mm_loadl_epi64(base.add(at[l] as usize) as *const __m128i) };
+    transpose_rays(&std::array::from_fn(|l| code(load(l))))
+}
+
 /// Codes read as the low halves of 32-bit words (the storage holds one
 /// code past the last texel).
 pub struct R16Snorm<'a>(pub &'a [i16]);
@@ -348,15 +362,8 @@ impl Texels for R16Snorm<'_> {
     #[inline]
     #[target_feature(enable = "avx2,fma,f16c")]
     unsafe fn value_quad(&self, o: __m256i) -> [__m256; 4] {
-        // A ray's four codes in one 64-bit load.
-        let at = int_lanes(o);
-        let base = self.0.as_ptr();
         // SAFETY: the caller's contract.
-        let codes = |l: usize| unsafe { _mm_loadl_epi64(base.add(at[l] as usize) as *const __m128i) };
-        transpose_rays(&std::array::from_fn(|l| {
-            let x = codes(l);
-            _mm_cvtepi32_ps(_mm_cvtepi16_epi32(x))
-        }))
+        unsafe { code_quads(self.0.as_ptr() as *const u16, o, |x| _mm_cvtepi32_ps(_mm_cvtepi16_epi32(x))) }
     }
 }
 
@@ -445,15 +452,8 @@ impl Texels for R16Unorm<'_> {
     #[inline]
     #[target_feature(enable = "avx2,fma,f16c")]
     unsafe fn value_quad(&self, o: __m256i) -> [__m256; 4] {
-        // A ray's four codes in one 64-bit load.
-        let at = int_lanes(o);
-        let base = self.0.as_ptr();
         // SAFETY: the caller's contract.
-        let codes = |l: usize| unsafe { _mm_loadl_epi64(base.add(at[l] as usize) as *const __m128i) };
-        transpose_rays(&std::array::from_fn(|l| {
-            let x = codes(l);
-            _mm_cvtepi32_ps(_mm_cvtepu16_epi32(x))
-        }))
+        unsafe { code_quads(self.0.as_ptr() as *const u16, o, |x| _mm_cvtepi32_ps(_mm_cvtepu16_epi32(x))) }
     }
 }
 
