@@ -165,7 +165,11 @@ pub const PROJECTION_REACH: usize = 3;
 impl VolumeGpu {
     /// The grid's ranges widened by `PROJECTION_REACH` cells, made once.
     pub fn wide_grid(&self) -> &MinMaxGrid {
-        self.wide_grid.get_or_init(|| self.grid.clone().widened([PROJECTION_REACH; 3]))
+        self.wide_grid.get_or_init(|| {
+            let g = &self.grid;
+            // (Without the grid's own wide ranges, which projections do not read.)
+            MinMaxGrid { min: g.min.clone(), max: g.max.clone(), wide: Vec::new(), ..*g }.widened([PROJECTION_REACH; 3])
+        })
     }
 
     /// Uploads `vol`, storing float data at `precision`. `native`: keep the
