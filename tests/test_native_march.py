@@ -224,6 +224,24 @@ def test_native_projections_match_the_shader(kind, model):
             assert native[1]["truncated_needed"] > 60
 
 
+def test_projection_leaps_follow_a_new_value_range():
+    # The cells' bounds are kept with the volume for its value map: a new
+    # value range must make new ones (bounds of the old map would leap cells
+    # whose values now pass the maximum).
+    n = 48
+    z, y, x = np.mgrid[0:n, 0:n, 0:n].astype(np.float32) / n
+    data = (0.2 + 0.6 * np.exp(-((x - 0.5) ** 2 + (y - 0.5) ** 2 + (z - 0.5) ** 2) / 0.03)).astype(np.float32)
+    r = VolumeRenderer(64, 56, light=Light.ambient_only(1.0))
+    r.load_volume(Volume(data))
+    r.set_camera(Camera.from_spherical(np.zeros(3), 0.2, 0.3, 0.0, 3.0))
+    cfg = RenderConfig.balanced().replace(model="mip")
+    for value_range in [(0.0, 1.0), (0.3, 0.5), (-2.0, 0.25)]:
+        r.set_transfer_functions(ColorTransferFunction.from_colormap("magma"), OpacityTransferFunction.linear(0.0, 1.0),
+                                 value_range=value_range)
+        native, shader = both(r, cfg)
+        assert_same(native, shader, f"value range {value_range}", fewer=True)
+
+
 @pytest.mark.parametrize("model", ["mip", "minip"])
 @pytest.mark.parametrize("dtype", ["float32", "uint8"])
 @pytest.mark.parametrize("background", ["varying", "uniform"])

@@ -265,13 +265,22 @@ pub struct Frame<'a> {
     /// bytes, where segments take their cells' rates; None: the frame's
     /// rate everywhere.
     pub majorants: Option<&'a [u8]>,
-    /// Maximum (minimum) intensity projections: each cell's largest
-    /// (smallest) value a sample in it can read (`MinMaxGrid::value_bounds`),
-    /// the same over the cube of cells of a radius (`Cells::exit`'s `cube`)
-    /// around it and that radius, cells as `cells`, and the grid's size. A
-    /// ray whose maximum (minimum) already reaches a bound leaps out of the
-    /// cell, or of the cube.
-    pub bounds: Option<(Vec<f32>, (Vec<f32>, i32), [usize; 3])>,
+    /// Maximum (minimum) intensity projections: the cells' bounds on their
+    /// values. A ray whose maximum (minimum) already reaches a bound leaps
+    /// out of the cell, or of the cube.
+    pub bounds: Option<CellBounds>,
+}
+
+/// Each cell's largest (smallest) value a sample in it can read
+/// (`MinMaxGrid::value_bounds`), cells as `Frame::cells`; the same over the
+/// cube of cells of radius `reach` (`Cells::exit`'s `cube`) around each;
+/// and the grid's size. Shared: the volume keeps them across frames.
+#[derive(Clone)]
+pub struct CellBounds {
+    pub cell: std::sync::Arc<[f32]>,
+    pub wide: std::sync::Arc<[f32]>,
+    pub reach: i32,
+    pub grid: [usize; 3],
 }
 
 /// What a native frame took.

@@ -77,7 +77,7 @@ pub unsafe fn project<T: Texels>(
     }
     // The cells' bounds, where rays leap.
     let leaps = f.bounds.as_ref().filter(|_| f.model != Model::Average);
-    let cells = leaps.map(|(_, _, grid)| Cells::new(p, start, per, *grid, false));
+    let cells = leaps.map(|b| Cells::new(p, start, per, b.grid, false));
     let h = set(p.step_size);
     let mut steps = 0u32;
     while _mm256_movemask_ps(_mm256_andnot_ps(stopped, going)) != 0 {
@@ -90,7 +90,7 @@ pub unsafe fn project<T: Texels>(
         let mid = _mm256_fmadd_ps(seg, set(0.5), start_at);
         // Lanes that leap, and the segment each goes on from.
         let (mut leap, mut next) = (zero, i);
-        if let (Some((bounds, (wide, reach), _)), Some(cells)) = (leaps, cells.as_ref()) {
+        if let (Some(b), Some(cells)) = (leaps, cells.as_ref()) {
             let can = _mm256_and_ps(active, seen);
             if _mm256_movemask_ps(can) != 0 {
                 let cell = cells.at(mid);
@@ -105,13 +105,13 @@ pub unsafe fn project<T: Texels>(
                         _mm256_cmp_ps::<_CMP_GE_OQ>(bound, _mm256_sub_ps(best, slack))
                     }
                 };
-                leap = _mm256_and_ps(can, passed(bounds));
+                leap = _mm256_and_ps(can, passed(&b.cell));
                 if _mm256_movemask_ps(leap) != 0 {
                     // Out of the cube where its bound is passed too, else
                     // the cell; to the first segment whose midpoint lies past
                     // it, a thousandth of a step early (compositing.wgsl `segment_past`).
-                    let far = _mm256_castps_si256(passed(wide));
-                    let cube = _mm256_blendv_epi8(_mm256_set1_epi32(1), _mm256_set1_epi32(*reach), far);
+                    let far = _mm256_castps_si256(passed(&b.wide));
+                    let cube = _mm256_blendv_epi8(_mm256_set1_epi32(1), _mm256_set1_epi32(b.reach), far);
                     let exit = cells.exit(&cell, cube);
                     let past = _mm256_sub_ps(_mm256_div_ps(_mm256_add_ps(mid, exit), h), set(0.5));
                     let kf = _mm256_ceil_ps(_mm256_sub_ps(past, _mm256_add_ps(rays.shift, set(1e-3))));

@@ -7,7 +7,7 @@ use super::context::GpuContext;
 use crate::error::Error;
 use super::half::{f16_to_f32, f32_to_f16};
 use crate::config::OpacityCorrection;
-use crate::cpu::{CpuVolume, Texels};
+use crate::cpu::{CellBounds, CpuVolume, Texels};
 use crate::occupancy::{empty_radius, occupied_bounds, MinMaxGrid, SegmentRanges, UNIFORM_FLAG};
 use crate::gradients;
 use crate::preintegrate;
@@ -42,9 +42,10 @@ pub struct VolumeGpu {
     pub bounds: Bounds,
     pub bytes: u64,
     pub grid: MinMaxGrid,
-    /// The grid's ranges over cubes of cells around each
-    /// (`PROJECTION_REACH`), made at the first projection that leaps.
-    pub wide_grid: std::sync::OnceLock<MinMaxGrid>,
+    /// The native march's maximum or minimum projections' cell bounds, for
+    /// the value map and kind (maximum: true) they were made for, at the
+    /// first such frame after either changed.
+    pub projection_bounds: std::sync::Mutex<Option<(ValueMap, bool, CellBounds)>>,
     /// What the shader's texel value stands for: the sampled value is
     /// `stored.apply(texel.r)` (the identity but for fixed-point storage).
     pub stored: ValueMap,
@@ -163,13 +164,26 @@ fn available_memory() -> Option<u64> {
 pub const PROJECTION_REACH: usize = 3;
 
 impl VolumeGpu {
-    /// The grid's ranges widened by `PROJECTION_REACH` cells, made once.
-    pub fn wide_grid(&self) -> &MinMaxGrid {
-        self.wide_grid.get_or_init(|| {
-            let g = &self.grid;
-            // (Without the grid's own wide ranges, which projections do not read.)
-            MinMaxGrid { min: g.min.clone(), max: g.max.clone(), wide: Vec::new(), ..*g }.widened([PROJECTION_REACH; 3])
-        })
+    /// The cells' bounds a maximum (`upper`) or minimum projection on the
+    /// native march leaps by, under value map `map`: made once for each
+    /// map and kind, not every frame.
+    pub fn projection_bounds(&self, map: ValueMap, upper: bool) -> CellBounds {
+        let mut kept = self.projection_bounds.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some((_, _, b)) = kept.as_ref().filter(|(m, u, _)| *m == map && *u == upper) {
+            return b.clone();
+        }
+        let g = &self.grid;
+        // (Without the grid's own wide ranges, which projections do not read.)
+        let wide = MinMaxGrid { min: g.min.clone(), max: g.max.clone(), wide: Vec::new(), ..*g };
+        let wide = wide.widened([PROJECTION_REACH; 3]);
+        let b = CellBounds {
+            cell: g.value_bounds(map, upper).into(),
+            wide: wide.value_bounds(map, upper).into(),
+            reach: PROJECTION_REACH as i32 + 1,
+            grid: g.dims,
+        };
+        *kept = Some((map, upper, b.clone()));
+        b
     }
 
     /// Uploads `vol`, storing float data at `precision`. `native`: keep the
@@ -286,7 +300,7 @@ impl VolumeGpu {
             bounds: vol.bounds,
             bytes: bytes.len() as u64 + normal_bytes,
             grid,
-            wide_grid: Default::default(),
+            projection_bounds: Default::default(),
             stored: ValueMap::IDENTITY,
             cpu,
         })
@@ -375,7 +389,7 @@ impl VolumeGpu {
             bounds: vol.bounds,
             bytes: 0,
             grid,
-            wide_grid: Default::default(),
+            projection_bounds: Default::default(),
             stored: ValueMap::IDENTITY,
             cpu: None,
         }

@@ -9,7 +9,7 @@ use crate::gpu::params::{world_unit, FrameInputs, Params};
 use crate::gpu::pipeline::{dispatch_groups, Layout, Variant};
 use crate::gpu::plan::{plan, PassPlan};
 use crate::gpu::readback::read_buffers;
-use crate::gpu::resources::{readback_buffer, PreintKey, RayState, PROJECTION_REACH};
+use crate::gpu::resources::{readback_buffer, PreintKey, RayState};
 use crate::preintegrate;
 use crate::integrate::max_extinction;
 use crate::output::{Format, Image, Pixels, Target};
@@ -154,11 +154,13 @@ impl GpuRenderer {
     /// The native march's frame of the current volume (which keeps its
     /// texels for it) and tables under `variant`, from `native_params`.
     pub(super) fn native_frame<'a>(&'a self, variant: &Variant, params: &'a Params) -> crate::cpu::Frame<'a> {
-        let cpu = self.volume.as_ref().and_then(|v| v.cpu.as_ref()).expect("the volume keeps its texels");
+        let vol = self.volume.as_ref().expect("the volume keeps its texels");
+        let cpu = vol.cpu.as_ref().expect("the volume keeps its texels");
         let occ = &self.occupancy;
         let model = cpu_model(variant.model);
         let iso = model == CpuModel::Isosurface;
-        // Projections read every segment (the shader's too): no leaps, no runs.
+        // Every value counts in a projection: no empty cells, no runs (maximum
+        // and minimum ones leap by their cells' bounds instead).
         let cells = !occ.codes.is_empty() && !model.projects();
         crate::cpu::Frame {
             params,
@@ -181,12 +183,8 @@ impl GpuRenderer {
             unbiased: variant.unbiased,
             back_to_front: variant.unbiased && variant.back_to_front,
             majorants: (variant.unbiased && variant.cell_rates && cells).then_some(&occ.majorants[..]),
-            bounds: matches!(model, CpuModel::Mip | CpuModel::MinIp).then(|| {
-                let vol = self.volume.as_ref().expect("the volume keeps its texels");
-                let upper = model == CpuModel::Mip;
-                let wide = (vol.wide_grid().value_bounds(self.value_map, upper), PROJECTION_REACH as i32 + 1);
-                (vol.grid.value_bounds(self.value_map, upper), wide, vol.grid.dims)
-            }),
+            bounds: matches!(model, CpuModel::Mip | CpuModel::MinIp)
+                .then(|| vol.projection_bounds(self.value_map, model == CpuModel::Mip)),
         }
     }
 
