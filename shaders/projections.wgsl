@@ -12,6 +12,11 @@ fn march_project(r: Ray) {
         st = ray_state[r.idx];
     }
     let stops = P.bricked == 0u && MODEL != MODEL_AVERAGE;
+    // A maximum (minimum) projection's ray that has read a value leaps a
+    // cell whose values cannot pass it, and the cube of cells around it
+    // where their bound cannot either. `occupancy` then holds each cell's
+    // bound and its cube's (src/gpu/resources.rs `ProjectionBounds`).
+    let leaps = SKIP_EMPTY && MODEL != MODEL_AVERAGE;
     var stopped = false;
     var taken = 0u;
     for (var i = r.begin; i < r.end; i++) {
@@ -19,7 +24,24 @@ fn march_project(r: Ray) {
         if (!(sp.y > 0.0)) {
             continue;
         }
-        let v = value_at(tex_of(point_at(r, sp.x + 0.5 * sp.y)));
+        let mid = sp.x + 0.5 * sp.y;
+        let tc = tex_of(point_at(r, mid));
+        if (leaps && st.y > 0.0) {
+            let bound = bitcast<vec2<f32>>(textureLoad(occupancy, cell_of(voxel_coords(tc)), 0).rg);
+            // The value so far, less 1e-6 of the f32 mapping's terms
+            // (src/occupancy.rs `value_bounds`).
+            let slack = (abs(st.x) + abs(P.value_offset)) * 1e-6;
+            var passed = bound >= vec2<f32>(st.x - slack);
+            if (MODEL == MODEL_MIP) {
+                passed = bound <= vec2<f32>(st.x + slack);
+            }
+            if (passed.x) {
+                let exit = exit_of_cube(tc, r.d, select(1u, PROJECTION_CUBE, passed.y));
+                i = segment_past(r, i, i, mid, exit) - 1u;
+                continue;
+            }
+        }
+        let v = value_at(tc);
         taken += 1u;
         if (is_nan(v)) {
             continue;

@@ -87,6 +87,12 @@ impl Model {
         self.integrates() || self == Model::Isosurface
     }
 
+    /// Rays leap cells whose values cannot change the pixel (the cells'
+    /// bounds against the ray's maximum or minimum so far).
+    pub fn leaps_by_bounds(self) -> bool {
+        matches!(self, Model::Mip | Model::MinIp)
+    }
+
     /// Rays may stop once opaque (alpha is the accumulated opacity).
     pub fn terminates_early(self) -> bool {
         matches!(self, Model::EmissionAbsorption | Model::Absorption | Model::SingleScattering)

@@ -332,12 +332,14 @@ impl MinMaxGrid {
     /// read, mapped by `map`, moved outwards by 1e-5 of the cell's mapped
     /// range: the march interpolates in f32, and rounding moves an
     /// interpolated value past its corners' range by no more than about
-    /// 1e-7 of that range (a uniform cell's samples are its value). The
-    /// march maps in f32 too, which moves a value by about 1e-7 of it: a
-    /// projection leaps where its value so far passes a bound less 1e-6 of
-    /// itself. Cells holding only NaN: -inf (`upper`) or +inf, which every
-    /// value passes.
-    pub fn value_bounds(&self, map: ValueMap, upper: bool) -> Vec<f32> {
+    /// 1e-7 of that range (a uniform cell's samples are its value).
+    /// `stored`: a value as the texels hold it (float16 and 16-bit fixed
+    /// point round it; the rounding keeps order, so the cell's extremes stay
+    /// its extremes). The march maps in f32 too, which moves a value by about
+    /// 1e-7 of the map's terms: a projection leaps where its value so far
+    /// passes a bound less 1e-6 of those. Cells holding only
+    /// NaN: -inf (`upper`) or +inf, which every value passes.
+    pub fn value_bounds(&self, map: ValueMap, upper: bool, stored: impl Fn(f32) -> f64) -> Vec<f32> {
         let (nothing, outwards) = if upper { (f32::NEG_INFINITY, 1.0) } else { (f32::INFINITY, -1.0) };
         self.min
             .iter()
@@ -346,7 +348,7 @@ impl MinMaxGrid {
                 if lo > hi {
                     return nothing;
                 }
-                let (lo, hi) = (map.apply(lo as f64), map.apply(hi as f64));
+                let (lo, hi) = (map.apply(stored(lo)), map.apply(stored(hi)));
                 let b = if upper { hi } else { lo };
                 (b + outwards * 1e-5 * (hi - lo)) as f32
             })
@@ -967,7 +969,7 @@ mod tests {
         g.max = vec![-1000.0, 560.0, f32::NEG_INFINITY];
         g.dims = [1, 1, 3];
         let map = ValueMap::new(1.0 / 2000.0, 0.5).unwrap();
-        let (upper, lower) = (g.value_bounds(map, true), g.value_bounds(map, false));
+        let (upper, lower) = (g.value_bounds(map, true, |x| x as f64), g.value_bounds(map, false, |x| x as f64));
         // A uniform cell's samples are its value: no margin.
         assert_eq!(upper[0], 0.0);
         assert_eq!(lower[0], 0.0);
@@ -977,5 +979,8 @@ mod tests {
         assert!((lower[1] as f64 - lo).abs() < 1e-7 && (lower[1] as f64) < 0.6 - 1.5e-6, "{}", lower[1]);
         // No value passes a NaN cell's bounds the wrong way: every ray leaps it.
         assert_eq!((upper[2], lower[2]), (f32::NEG_INFINITY, f32::INFINITY));
+        // Bounds of the values as stored: air stored as -999 reads 0.0005.
+        let stored = |x: f32| x as f64 + 1.0;
+        assert_eq!((g.value_bounds(map, true, stored)[0], g.value_bounds(map, false, stored)[0]), (0.0005, 0.0005));
     }
 }

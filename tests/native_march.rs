@@ -1,9 +1,7 @@
 //! The native CPU march (src/cpu) renders the shader's frame: where the
 //! adapter is a CPU with AVX2, FMA and F16C, each storage it reads and each kind
 //! of segment it takes, rendered both ways, agree within 0.25 level with
-//! the same samples (maximum and minimum projections: no more, since the
-//! native march leaps cells that cannot change a pixel;
-//! tests/test_native_march.py covers the options and
+//! the same samples (tests/test_native_march.py covers the options and
 //! scenes; this keeps `cargo test` on the native path too). Elsewhere the
 //! renderer must never take it.
 
@@ -89,12 +87,12 @@ fn the_native_march_renders_the_shaders_frame() {
             assert!(shader.iter().cloned().fold(0.0, f32::max) > 0.05, "the scene must show something");
             let diff = native.iter().zip(&shader).map(|(a, b)| (a - b).abs()).fold(0.0, f32::max) * 255.0;
             assert!(diff < 0.25, "{precision}, {cfg:?}: {diff} levels");
-            if matches!(cfg.model, Model::Mip | Model::MinIp) {
-                // The native march leaps cells that cannot change the pixel.
-                assert!(t.samples as f64 <= s.samples as f64 * (1.0 + 1e-4) + 2.0, "{} vs {}", s.samples, t.samples);
-            } else {
-                assert!(s.samples.abs_diff(t.samples) as f64 <= 1e-4 * s.samples as f64 + 2.0, "{} vs {}", s.samples, t.samples);
-            }
+            // Maximum and minimum projections leap cells whose bound lies
+            // past their value so far: where the sampler filters 16-bit
+            // texels its values round otherwise, which moves the leaps of
+            // cells whose bound lies within that rounding.
+            let within = if matches!(cfg.model, Model::Mip | Model::MinIp) { 1e-3 } else { 1e-4 };
+            assert!(s.samples.abs_diff(t.samples) as f64 <= within * s.samples as f64 + 2.0, "{} vs {}", s.samples, t.samples);
         }
     }
     if cpu_adapter && pyvr_core::cpu::available() {

@@ -115,20 +115,20 @@ def both(r, config=None):
     return out
 
 
-def assert_same(native, shader, what, fewer=False):
-    """The same image, truncation and samples; `fewer`: the native march may
-    take fewer samples (maximum and minimum projections leap over cells
-    that cannot change their pixel; the shader reads every segment)."""
+def assert_same(native, shader, what, leaps=False):
+    """The same image, truncation and samples. `leaps`: maximum and minimum
+    projections leap cells whose bound their value so far passes; where the
+    device's sampler filters 16-bit texels, its values round differently
+    from the native march's, which moves the leaps of cells whose bound lies
+    within that rounding of the value (measured: 1.2e-4 of the samples)."""
     (a, sa), (b, sb) = native, shader
     assert sa["engine"] == "native" and sb["engine"] == "gpu", what
     assert a.max() > 0.05, f"{what}: the scene must show something"
     diff = np.abs(a - b)
     assert diff.max() < 0.25 * LEVEL, f"{what}: max difference {diff.max() / LEVEL:.4f} levels"
     assert diff.mean() < 0.002 * LEVEL, f"{what}: mean difference {diff.mean() / LEVEL:.5f} levels"
-    if fewer:
-        assert sa["samples"] <= sb["samples"] * (1 + 1e-4) + 2, f"{what}: samples {sa} vs {sb}"
-    else:
-        assert abs(sa["samples"] - sb["samples"]) <= 1e-4 * sb["samples"] + 2, f"{what}: samples {sa} vs {sb}"
+    within = 1e-3 if leaps else 1e-4
+    assert abs(sa["samples"] - sb["samples"]) <= within * sb["samples"] + 2, f"{what}: samples {sa} vs {sb}"
     assert sa["truncated_needed"] == sb["truncated_needed"], what
 
 
@@ -219,7 +219,7 @@ def test_native_projections_match_the_shader(kind, model):
             r.set_camera(cam)
             native, shader = both(r, cfg)
             what = f"{kind}, {model}, {name}, {'outside' if cam is OUTSIDE else 'inside'}"
-            assert_same(native, shader, what, fewer=model in ("mip", "minip"))
+            assert_same(native, shader, what, leaps=model != "average")
         if name == "truncated":
             assert native[1]["truncated_needed"] > 60
 
@@ -239,7 +239,7 @@ def test_projection_leaps_follow_a_new_value_range():
         r.set_transfer_functions(ColorTransferFunction.from_colormap("magma"), OpacityTransferFunction.linear(0.0, 1.0),
                                  value_range=value_range)
         native, shader = both(r, cfg)
-        assert_same(native, shader, f"value range {value_range}", fewer=True)
+        assert_same(native, shader, f"value range {value_range}")
 
 
 @pytest.mark.parametrize("model", ["mip", "minip"])
@@ -268,12 +268,18 @@ def test_projections_leap_cells_that_cannot_change_the_pixel(model, dtype, backg
     r.native_march = True
     cfg = RenderConfig.balanced().replace(model=model)
     native, shader = both(r, cfg)
-    assert_same(native, shader, f"{model}, {dtype}, {background}", fewer=True)
-    # Measured: 0.63-0.73 of the shader's samples where rays that miss the
-    # ball cross a field whose maximum grows along them, 0.17 in a uniform
-    # one; 1 without leaps.
+    what = f"{model}, {dtype}, {background}"
+    assert_same(native, shader, what)
+    # Every segment read: the same image from more samples. Measured: the
+    # leaps read 0.63-0.73 of them where rays that miss the ball cross a
+    # field whose maximum grows along them, 0.17 in a uniform one.
+    r.empty_space_skipping = False
+    every, every_shader = both(r, cfg)
+    assert_same(every, every_shader, f"{what}, every segment")
     most = 0.8 if background == "varying" else 0.25
-    assert native[1]["samples"] < most * shader[1]["samples"], (native[1], shader[1])
+    for leapt, read in ((native, every), (shader, every_shader)):
+        assert np.abs(leapt[0] - read[0]).max() < 0.25 * LEVEL, what
+        assert leapt[1]["samples"] < most * read[1]["samples"], (what, leapt[1], read[1])
 
 
 @pytest.mark.parametrize("kind", KINDS)

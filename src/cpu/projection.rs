@@ -49,6 +49,7 @@ pub unsafe fn project<T: Texels>(
     // `value_prescale` is left out: the caller joins a split scale into `value_scale`.
     let value_scale = set(p.value_scale * T::VALUE_UNIT);
     let value_offset = set(p.value_offset);
+    let offset_size = set(p.value_offset.abs());
     let as_ps = _mm256_castsi256_ps;
 
     let mut i = rays.lo;
@@ -94,8 +95,8 @@ pub unsafe fn project<T: Texels>(
             let can = _mm256_and_ps(active, seen);
             if _mm256_movemask_ps(can) != 0 {
                 let cell = cells.at(mid);
-                // The value so far, less 1e-6 of itself for the f32 mapping (`value_bounds`).
-                let slack = _mm256_mul_ps(_mm256_andnot_ps(set(-0.0), best), set(1e-6));
+                // The value so far, less 1e-6 of the f32 mapping's terms (`value_bounds`).
+                let slack = _mm256_mul_ps(_mm256_add_ps(_mm256_andnot_ps(set(-0.0), best), offset_size), set(1e-6));
                 let passed = |bounds: &[f32]| {
                     // SAFETY: the cell is clamped into the grid, a bound a cell.
                     let bound = unsafe { _mm256_i32gather_ps::<4>(bounds.as_ptr(), cell.index) };

@@ -52,7 +52,9 @@ pub struct Variant {
     pub early_termination: bool,
     pub correction: OpacityCorrection,
     pub layout: Layout,
-    /// Leap over occupancy cells the transfer function leaves empty.
+    /// Leap over occupancy cells the transfer function leaves empty; in a
+    /// maximum (minimum) projection, over cells whose values cannot pass a
+    /// ray's maximum (minimum) so far.
     pub skip_empty: bool,
     pub model: Model,
     pub back_to_front: bool,
@@ -81,7 +83,8 @@ pub fn marches_back_to_front(cfg: &RenderConfig) -> bool {
 
 impl Variant {
     /// The variant a frame needs: only what its model, light and config use.
-    /// `skip_empty` says the occupancy grid has empty cells worth skipping.
+    /// `skip_empty` says the occupancy grid has empty cells worth skipping
+    /// (for a maximum or minimum projection: that its rays may leap).
     pub fn new(shading: Shading, light: LightKind, cfg: &RenderConfig, layout: Layout, skip_empty: bool) -> Self {
         let model = cfg.model;
         let shading = match model {
@@ -94,7 +97,7 @@ impl Variant {
         Variant {
             // Which texture holds the normals only matters where they are read.
             layout: Layout { normals_in_volume: layout.normals_in_volume && shading == Shading::Normals, ..layout },
-            skip_empty: skip_empty && model.skips_cells(),
+            skip_empty: skip_empty && (model.skips_cells() || model.leaps_by_bounds()),
             shading,
             // The light's kind only matters when a diffuse term is computed.
             point_light: shading != Shading::AmbientOnly && light == LightKind::Point,

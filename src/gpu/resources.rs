@@ -13,7 +13,7 @@ use crate::gradients;
 use crate::preintegrate;
 use crate::scene::Bounds;
 use crate::error::{try_collect, try_vec};
-use crate::fixed16::{normal_code, Fixed16};
+use crate::fixed16::{normal_code, Fixed16, CODE_MAX};
 use crate::transfer::ValueMap;
 use crate::volume::{sanitize, unit_direction, Precision, VolumeView, Voxels};
 
@@ -42,10 +42,9 @@ pub struct VolumeGpu {
     pub bounds: Bounds,
     pub bytes: u64,
     pub grid: MinMaxGrid,
-    /// The native march's maximum or minimum projections' cell bounds, for
-    /// the value map and kind (maximum: true) they were made for, at the
-    /// first such frame after either changed.
-    pub projection_bounds: std::sync::Mutex<Option<(ValueMap, bool, CellBounds)>>,
+    /// Maximum or minimum projections' cell bounds, for the value map and
+    /// kind they were made for, at the first such frame after either changed.
+    pub projection_bounds: std::sync::Mutex<Option<ProjectionBounds>>,
     /// What the shader's texel value stands for: the sampled value is
     /// `stored.apply(texel.r)` (the identity but for fixed-point storage).
     pub stored: ValueMap,
@@ -158,32 +157,86 @@ fn available_memory() -> Option<u64> {
 }
 
 /// Cells either side of a cell over which a maximum (minimum) projection
-/// on the native march also bounds the values: where the bound shows a
-/// ray's maximum cannot grow, it leaps out of that cube of 7^3 cells (24
-/// voxels or more ahead) instead of out of the cell.
+/// also bounds the values: where the bound shows a ray's maximum cannot
+/// grow, it leaps out of that cube of 7^3 cells (24 voxels or more ahead)
+/// instead of out of the cell.
 pub const PROJECTION_REACH: usize = 3;
 
+/// The cells' bounds a maximum (`upper`) or minimum projection leaps by,
+/// under value map `map`; and, once a frame on the shader needs them, the
+/// same as an Rg32Uint texture of the occupancy grid's size (each cell's
+/// bound and its cube's, as f32 bits), bound where the occupancy grid is.
+pub struct ProjectionBounds {
+    map: ValueMap,
+    upper: bool,
+    bounds: CellBounds,
+    view: Option<wgpu::TextureView>,
+}
+
 impl VolumeGpu {
-    /// The cells' bounds a maximum (`upper`) or minimum projection on the
-    /// native march leaps by, under value map `map`: made once for each
-    /// map and kind, not every frame.
-    pub fn projection_bounds(&self, map: ValueMap, upper: bool) -> CellBounds {
+    fn projection_entry(&self, map: ValueMap, upper: bool) -> std::sync::MutexGuard<'_, Option<ProjectionBounds>> {
         let mut kept = self.projection_bounds.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some((_, _, b)) = kept.as_ref().filter(|(m, u, _)| *m == map && *u == upper) {
-            return b.clone();
+        if kept.as_ref().is_some_and(|k| k.map == map && k.upper == upper) {
+            return kept;
         }
         let g = &self.grid;
         // (Without the grid's own wide ranges, which projections do not read.)
         let wide = MinMaxGrid { min: g.min.clone(), max: g.max.clone(), wide: Vec::new(), ..*g };
         let wide = wide.widened([PROJECTION_REACH; 3]);
-        let b = CellBounds {
-            cell: g.value_bounds(map, upper).into(),
-            wide: wide.value_bounds(map, upper).into(),
+        let stored = |x: f32| self.as_stored(x);
+        let bounds = CellBounds {
+            cell: g.value_bounds(map, upper, stored).into(),
+            wide: wide.value_bounds(map, upper, stored).into(),
             reach: PROJECTION_REACH as i32 + 1,
             grid: g.dims,
         };
-        *kept = Some((map, upper, b.clone()));
-        b
+        *kept = Some(ProjectionBounds { map, upper, bounds, view: None });
+        kept
+    }
+
+    /// Value `x` (a sample's, as the grid holds it) as the texels store it:
+    /// float16 rounds it to the nearest half, 16-bit fixed point to the
+    /// nearest code (`fixed16`, whose map `stored` is).
+    fn as_stored(&self, x: f32) -> f64 {
+        use wgpu::TextureFormat as F;
+        match self.format {
+            F::R16Float | F::Rgba16Float => f16_to_f32(f32_to_f16(x)) as f64,
+            F::R16Snorm | F::Rgba16Snorm => {
+                let code = ((x as f64 - self.stored.offset) / self.stored.scale * CODE_MAX as f64)
+                    .clamp(-CODE_MAX as f64, CODE_MAX as f64)
+                    .round();
+                self.stored.apply(code / CODE_MAX as f64)
+            }
+            _ => x as f64,
+        }
+    }
+
+    /// The cells' bounds a maximum (`upper`) or minimum projection leaps by
+    /// under value map `map`: made once for each map and kind, not every frame.
+    pub fn projection_bounds(&self, map: ValueMap, upper: bool) -> CellBounds {
+        self.projection_entry(map, upper).as_ref().expect("made above").bounds.clone()
+    }
+
+    /// The same bounds as the texture the shader reads (`projections.wgsl`),
+    /// uploaded at the first frame that needs it; and the bytes uploaded.
+    pub fn projection_view(&self, ctx: &GpuContext, map: ValueMap, upper: bool) -> Result<(wgpu::TextureView, u64), Error> {
+        let mut kept = self.projection_entry(map, upper);
+        let entry = kept.as_mut().expect("made above");
+        if let Some(view) = &entry.view {
+            return Ok((view.clone(), 0));
+        }
+        let b = &entry.bounds;
+        let mut data = try_vec(b.cell.len() * 8, 0u8, "the projection's cell bounds")?;
+        for ((texel, &cell), &wide) in data.chunks_exact_mut(8).zip(b.cell.iter()).zip(b.wide.iter()) {
+            texel[..4].copy_from_slice(&cell.to_bits().to_le_bytes());
+            texel[4..].copy_from_slice(&wide.to_bits().to_le_bytes());
+        }
+        let [g0, g1, g2] = b.grid;
+        let size = wgpu::Extent3d { width: g2 as u32, height: g1 as u32, depth_or_array_layers: g0 as u32 };
+        let rg32 = wgpu::TextureFormat::Rg32Uint;
+        let view = ctx.texture_with_data("uploading the projection's cell bounds", "cell bounds", size, D3, rg32, 1, &data)?;
+        entry.view = Some(view.clone());
+        Ok((view, data.len() as u64))
     }
 
     /// Uploads `vol`, storing float data at `precision`. `native`: keep the

@@ -4,6 +4,7 @@
 //! declaration order, and no preprocessor is involved).
 
 use super::bindings;
+use super::resources::PROJECTION_REACH;
 use crate::integrate::SHADOW_TAU_MAX;
 use crate::model::Model;
 use crate::occupancy::{BLOCK, UNIFORM_FLAG};
@@ -48,6 +49,8 @@ pub fn prelude() -> String {
     let _ = writeln!(s, "const CELL: f32 = {:.1};", BLOCK as f64);
     let _ = writeln!(s, "// Added to a uniform cell's radius in the occupancy texels' g.");
     let _ = writeln!(s, "const UNIFORM_FLAG: u32 = {UNIFORM_FLAG}u;");
+    let _ = writeln!(s, "// Radius code of the cube of cells a projection's wide bound covers.");
+    let _ = writeln!(s, "const PROJECTION_CUBE: u32 = {}u;", PROJECTION_REACH + 1);
     let _ = writeln!(s, "// A shadow ray stops once its optical depth passes this (light below e^-16).");
     let _ = writeln!(s, "const SHADOW_TAU_MAX: f32 = {SHADOW_TAU_MAX:.1};");
     let _ = writeln!(s, "// Opacity change over a segment's reachable values that refines it (REFINE).");

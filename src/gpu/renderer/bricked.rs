@@ -387,7 +387,7 @@ impl GpuRenderer {
             frame.dispatched += 1;
             return Ok(());
         }
-        self.bind(variant.layout.hw_filter)?;
+        self.bind(&variant)?;
         let bind_group = self.bind_group.as_ref().expect("bound above").0.clone();
         let slopes = self.volume.as_ref().expect("swapped in").grid.slopes;
         let params = frame.params.for_brick(bounds, grid, index).with_slopes(slopes, self.value_map.scale);

@@ -1,6 +1,6 @@
 //! A renderer's frame: check, plan, bind, dispatch, read back.
 
-use super::{Ends, FrameStats, GpuRenderer, Rect, LEAP_MIN_UNIFORM, SKIP_MIN_EMPTY, STATS_BYTES};
+use super::{BindKey, Ends, FrameStats, GpuRenderer, Rect, LEAP_MIN_UNIFORM, SKIP_MIN_EMPTY, STATS_BYTES};
 use crate::config::{OpacityCorrection, RenderConfig};
 use crate::cpu::Model as CpuModel;
 use crate::gpu::bindings;
@@ -77,7 +77,7 @@ impl GpuRenderer {
         if self.native_covers(&variant, cfg) {
             return self.render_native(&variant, &params, out, blank, stop);
         }
-        self.bind(variant.layout.hw_filter)?;
+        self.bind(&variant)?;
         let started = std::time::Instant::now();
         let bind_group = self.bind_group.as_ref().expect("bound above").0.clone();
         self.dispatch(variant, &bind_group, params, passes, Ends { first: true, last: true }, None, stop)?;
@@ -183,7 +183,7 @@ impl GpuRenderer {
             unbiased: variant.unbiased,
             back_to_front: variant.unbiased && variant.back_to_front,
             majorants: (variant.unbiased && variant.cell_rates && cells).then_some(&occ.majorants[..]),
-            bounds: matches!(model, CpuModel::Mip | CpuModel::MinIp)
+            bounds: (variant.skip_empty && variant.model.leaps_by_bounds())
                 .then(|| vol.projection_bounds(self.value_map, model == CpuModel::Mip)),
         }
     }
@@ -329,7 +329,9 @@ impl GpuRenderer {
         let shading = Shading::choose(light, vol.normals_apart || vol.normals_in_volume);
         let hw_filter = vol.filterable && !(self.shader_filtering || cfg.exact_filtering);
         let layout = Layout { hw_filter, normals_in_volume: vol.normals_in_volume };
-        let skip = self.skip_empty && self.occupancy.empty_fraction >= SKIP_MIN_EMPTY;
+        // Projections' leaps need no empty cells, only the cells' bounds.
+        let skip = self.skip_empty
+            && (cfg.model.leaps_by_bounds() || self.occupancy.empty_fraction >= SKIP_MIN_EMPTY);
         let mut variant = Variant::new(shading, light.kind, cfg, layout, skip);
         let shadow_rays = cfg.model == Model::SingleScattering && variant.shading != Shading::AmbientOnly;
         let pixels = self.width as u64 * self.height as u64;
@@ -366,9 +368,15 @@ impl GpuRenderer {
         Ok((variant, passes))
     }
 
-    /// Makes the bind group unless the current one still holds every resource.
-    pub(super) fn bind(&mut self, hw_filter: bool) -> Result<(), Error> {
-        if self.bind_group.as_ref().is_some_and(|(_, f)| *f == hw_filter) {
+    /// Makes the bind group unless the current one still holds every
+    /// resource `variant` reads. A maximum or minimum projection that leaps
+    /// reads its cells' bounds where the occupancy grid is bound.
+    pub(super) fn bind(&mut self, variant: &Variant) -> Result<(), Error> {
+        let hw_filter = variant.layout.hw_filter;
+        let projection = (variant.skip_empty && variant.model.leaps_by_bounds())
+            .then_some((self.value_map, variant.model == Model::Mip));
+        let key = BindKey { hw_filter, projection };
+        if self.bind_group.as_ref().is_some_and(|(_, k)| *k == key) {
             return Ok(());
         }
         self.pending_upload += self.tables.upload_preint(&self.ctx)?;
@@ -377,11 +385,18 @@ impl GpuRenderer {
         let vol = self.volume.as_ref().expect("checked by check_ready");
         let (lut, _) = self.tables.lut.as_ref().expect("checked by check_ready");
         let normals = vol.normals.as_ref().unwrap_or(&self.fixed.no_normals);
-        let occupancy = self
-            .occupancy
-            .view
-            .as_ref()
-            .ok_or_else(|| Error::Gpu("the occupancy grid is missing: load the volume again".into()))?;
+        let occupancy = match projection {
+            Some((map, upper)) => {
+                let (view, bytes) = vol.projection_view(&self.ctx, map, upper)?;
+                self.pending_upload += bytes;
+                view
+            }
+            None => self
+                .occupancy
+                .view
+                .clone()
+                .ok_or_else(|| Error::Gpu("the occupancy grid is missing: load the volume again".into()))?,
+        };
         let view = wgpu::BindingResource::TextureView;
         let sampler = wgpu::BindingResource::Sampler;
         let f = &self.frame;
@@ -396,7 +411,7 @@ impl GpuRenderer {
             (bindings::LINEAR_SAMPLER, sampler(&self.fixed.linear_sampler)),
             (bindings::RAY_STATE, f.ray_state.state.as_entire_binding()),
             (bindings::RAY_DONE, f.ray_state.done.as_entire_binding()),
-            (bindings::OCCUPANCY, view(occupancy)),
+            (bindings::OCCUPANCY, view(&occupancy)),
             (bindings::PREINT, view(preint)),
         ]
         .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource });
@@ -408,7 +423,7 @@ impl GpuRenderer {
                 entries: &entries,
             })
         })?;
-        self.bind_group = Some((group, hw_filter));
+        self.bind_group = Some((group, key));
         Ok(())
     }
 

@@ -113,8 +113,8 @@ pub struct GpuRenderer {
     /// adapter is a CPU (`crate::cpu`); off: always the shader. On unless
     /// the environment sets PYVR_NATIVE_MARCH=0.
     pub native_march: bool,
-    /// The bind group and the filtering it was made for.
-    bind_group: Option<(wgpu::BindGroup, bool)>,
+    /// The bind group and what it was made for.
+    bind_group: Option<(wgpu::BindGroup, BindKey)>,
     /// The last frame was an isosurface: its depth is in the ray state, or
     /// in `native_depth` where the native march rendered it.
     depth_ready: bool,
@@ -138,6 +138,15 @@ mod frame;
 pub use bricked::BrickFrame;
 
 /// Pixels a dispatch covers.
+/// What a bind group was made for: the volume's filtering, and the value
+/// map and kind (maximum: true) of the projection bounds bound where the
+/// occupancy grid is, if any.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct BindKey {
+    hw_filter: bool,
+    projection: Option<(ValueMap, bool)>,
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 struct Rect {
     x: u32,
