@@ -7,7 +7,7 @@
 //! reaches 0) has its pixel and stops, as the shader's do. A maximum
 //! (minimum) projection's ray leaps over a cell whose values cannot pass
 //! its maximum (minimum) so far (`Frame::bounds`): the same pixel from
-//! fewer reads. The shader reads every segment.
+//! fewer reads, by the shader's rule.
 
 use super::avx2::{channel, corners, int_lanes, lanes, lanes_of, truncated_here, voxel_axes, Spans, Texels};
 use super::cells::Cells;
