@@ -401,7 +401,8 @@ impl PyRenderer {
         Ok(d)
     }
 
-    /// Leap over cells the transfer function leaves empty (default on).
+    /// Leap over cells the transfer function leaves empty, and in maximum
+    /// and minimum projections over cells that cannot change the pixel (default on).
     #[getter]
     fn get_skip_empty(&self) -> bool {
         self.inner.skip_empty
