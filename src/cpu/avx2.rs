@@ -752,11 +752,12 @@ pub(super) unsafe fn sample_light<T: Texels>(
     at: __m256,
     hi: &[__m256i; 3],
     stride: &[__m256i; 3],
+    read: Option<&CellRows>,
 ) -> __m256 {
     let p = f.params;
     let (ambient, diffuse) = (_mm256_set1_ps(p.ambient), _mm256_set1_ps(p.diffuse));
     // SAFETY: the caller's contract.
-    let normal = || if f.gradient { unsafe { gradient_at(tex, p, u, texel[0], hi, stride) } } else { *texel };
+    let normal = || if f.gradient { unsafe { gradient_at(tex, p, u, texel[0], hi, stride, read) } } else { *texel };
     if f.lit && !f.point_light && p.light_valid == 1 {
         let light_dir: [__m256; 3] = std::array::from_fn(|k| _mm256_set1_ps(p.light_dir[k]));
         lit_by(&normal(), &light_dir, ambient, diffuse)
@@ -1274,7 +1275,13 @@ pub unsafe fn march<T: Texels>(
                     }
                 }
             }
-            let texel = tex.trilinear(&offs, &w);
+            // A sample lit by the field's gradient in values alone reads its
+            // cell's rows, which the gradient's differences read too.
+            let rows = if T::VALUES_ONLY && f.lit && f.gradient { CellRows::read(tex, &u, &hi, &stride) } else { None };
+            let texel = match &rows {
+                Some(rows) => value_only(rows.value()),
+                None => tex.trilinear(&offs, &w),
+            };
             // NaN reads as value 0 and opacity 0.
             let v = _mm256_fmadd_ps(texel[0], value_scale, value_offset);
             let valid = _mm256_cmp_ps::<_CMP_ORD_Q>(v, v);
@@ -1294,7 +1301,7 @@ pub unsafe fn march<T: Texels>(
             let nothing = f.preint.is_none() && _mm256_movemask_ps(_mm256_andnot_ps(clear_lanes, fetch)) == 0;
             let sub_nothing = refine > 0 && _mm256_movemask_ps(_mm256_andnot_ps(clear_lanes, in_sub)) == 0;
             let dark = nothing || (sub_nothing && _mm256_movemask_ps(_mm256_andnot_ps(in_sub, fetch)) == 0);
-            let light = if scatters || dark { one } else { sample_light(f, tex, &rays, &u, &texel, at, &hi, &stride) };
+            let light = if scatters || dark { one } else { sample_light(f, tex, &rays, &u, &texel, at, &hi, &stride, rows.as_ref()) };
             // The midpoint rule (every segment of a plain frame, the shorter
             // end segments of a pre-integrated one): optical depth and colour.
             let midpoint = |seg: __m256| -> (__m256, [__m256; 3]) {
@@ -1526,25 +1533,104 @@ pub(super) fn ray_alpha(tau: f32, trans: f32, emission: bool) -> f32 {
     }
 }
 
+/// The four rows of texels along the last axis through the cell around
+/// voxel coordinates `u` of a values-only storage, each read as four
+/// texels from the one before the cell (`value_quad`) and interpolated at
+/// the cell's weight along the last axis as its down, own and up rows; with
+/// what the other axes' rows need. None where one of the eight lanes' cell
+/// touches the storage's ends along the last axis (where texels are clamped).
+pub(super) struct CellRows {
+    /// [j0][j1]: the rows at numpy axes 0 and 1 texels b and b + 1.
+    rows: [[[__m256; 3]; 2]; 2],
+    /// The cell's weights, and offsets of texels b - 1 to b + 2 along axes
+    /// 0 and 1 (clamped, as `corners` clamps) and of texel b along the last.
+    w: [__m256; 3],
+    along: [[__m256i; 4]; 2],
+    last: __m256i,
+}
+
+impl CellRows {
+    /// # Safety
+    /// Needs AVX2, FMA and F16C, and `tex` the padding its reads need.
+    #[inline]
+    #[target_feature(enable = "avx2,fma,f16c")]
+    pub(super) unsafe fn read<T: Texels>(tex: &T, u: &[__m256; 3], hi: &[__m256i; 3], stride: &[__m256i; 3]) -> Option<CellRows> {
+        let (zi, onei) = (_mm256_setzero_si256(), _mm256_set1_epi32(1));
+        if !T::VALUES_ONLY {
+            return None;
+        }
+        let fl = u.map(|x| _mm256_floor_ps(x));
+        let b = fl.map(|x| _mm256_cvttps_epi32(x));
+        // Texels b - 1 to b + 2 along the last axis, unclamped.
+        let last = _mm256_sub_epi32(hi[2], onei);
+        let inside = _mm256_and_si256(_mm256_cmpgt_epi32(b[2], zi), _mm256_cmpgt_epi32(last, b[2]));
+        if _mm256_movemask_epi8(inside) != -1 {
+            return None;
+        }
+        let w: [__m256; 3] = std::array::from_fn(|k| _mm256_sub_ps(u[k], fl[k]));
+        let along = |k: usize| -> [__m256i; 4] {
+            std::array::from_fn(|j| {
+                let t = _mm256_add_epi32(b[k], _mm256_set1_epi32(j as i32 - 1));
+                _mm256_mullo_epi32(_mm256_min_epi32(_mm256_max_epi32(t, zi), hi[k]), stride[k])
+            })
+        };
+        let along = [along(0), along(1)];
+        let last = _mm256_mullo_epi32(b[2], stride[2]);
+        let mut rows = [[[_mm256_setzero_ps(); 3]; 2]; 2];
+        for (a, j0) in [1, 2].into_iter().enumerate() {
+            for (c, j1) in [1, 2].into_iter().enumerate() {
+                let from = _mm256_sub_epi32(_mm256_add_epi32(_mm256_add_epi32(along[0][j0], along[1][j1]), last), stride[2]);
+                // SAFETY: the offsets address texels (the caller's
+                // contract), and texels b - 1 to b + 2 exist along the last axis.
+                let t = unsafe { tex.value_quad(from) };
+                rows[a][c] = [lerp(t[0], t[1], w[2]), lerp(t[1], t[2], w[2]), lerp(t[2], t[3], w[2])];
+            }
+        }
+        Some(CellRows { rows, w, along, last })
+    }
+
+    /// Rows [j0][j1] interpolated as the trilinear read does: along numpy axis 1, then 0.
+    #[inline]
+    #[target_feature(enable = "avx2,fma,f16c")]
+    fn tri(&self, r: [[__m256; 2]; 2]) -> __m256 {
+        let w = &self.w;
+        lerp(lerp(r[0][0], r[0][1], w[1]), lerp(r[1][0], r[1][1], w[1]), w[0])
+    }
+
+    /// The trilinear value at `u`: `Texels::trilinear`'s, bit for bit (the
+    /// same texels, weights and order, no corner clamped along the last axis).
+    #[inline]
+    #[target_feature(enable = "avx2,fma,f16c")]
+    pub(super) fn value(&self) -> __m256 {
+        self.tri(std::array::from_fn(|a| std::array::from_fn(|c| self.rows[a][c][1])))
+    }
+}
+
 /// The interpolated values' differences T(u + e_k) - T(u - e_k) one voxel
 /// either side of voxel coordinates `u` along each numpy axis k.
 ///
 /// Six trilinear reads take 24 pairs of texels along the last axis. Values
-/// alone share them: the four rows of the cell around `u`, each read as
-/// four texels from the one before the cell (`value_quad`), give the last
-/// axis's differences and the rows the other two axes share; those read
-/// four pairs more each. Each difference is interpolated in the trilinear
-/// read's order from the same texels, with the cell's own weights where the
-/// six reads take those of u + 1 and u - 1 (the same but for their
-/// rounding). Eight lanes of which one's cell touches the storage's ends
-/// along the last axis (where texels are clamped) take the six reads.
+/// alone share them: the four rows of the cell around `u` (`CellRows`, which
+/// the sample's own value may have read already) give the last axis's
+/// differences and the rows the other two axes share; those read four pairs
+/// more each. Each difference is interpolated in the trilinear read's
+/// order from the same texels, with the cell's own weights where the six
+/// reads take those of u + 1 and u - 1 (the same but for their rounding).
+/// Eight lanes of which one's cell touches the storage's ends along the
+/// last axis (where texels are clamped) take the six reads.
 ///
 /// # Safety
 /// Needs AVX2, FMA and F16C, and `tex` the padding its reads need.
 #[inline]
 #[target_feature(enable = "avx2,fma,f16c")]
-unsafe fn differences<T: Texels>(tex: &T, u: &[__m256; 3], hi: &[__m256i; 3], stride: &[__m256i; 3]) -> [__m256; 3] {
-    let (zi, onei, one) = (_mm256_setzero_si256(), _mm256_set1_epi32(1), _mm256_set1_ps(1.0));
+unsafe fn differences<T: Texels>(
+    tex: &T,
+    u: &[__m256; 3],
+    hi: &[__m256i; 3],
+    stride: &[__m256i; 3],
+    read: Option<&CellRows>,
+) -> [__m256; 3] {
+    let one = _mm256_set1_ps(1.0);
     let six_reads = || -> [__m256; 3] {
         std::array::from_fn(|k| {
             let (mut up, mut down) = (*u, *u);
@@ -1555,58 +1641,37 @@ unsafe fn differences<T: Texels>(tex: &T, u: &[__m256; 3], hi: &[__m256i; 3], st
             unsafe { _mm256_sub_ps(tex.trilinear(&ou, &wu)[0], tex.trilinear(&od, &wd)[0]) }
         })
     };
-    if !T::VALUES_ONLY {
-        return six_reads();
-    }
-    let fl = u.map(|x| _mm256_floor_ps(x));
-    let b = fl.map(|x| _mm256_cvttps_epi32(x));
-    // Texels b - 1 to b + 2 along the last axis, unclamped.
-    let last = _mm256_sub_epi32(hi[2], onei);
-    let inside = _mm256_and_si256(_mm256_cmpgt_epi32(b[2], zi), _mm256_cmpgt_epi32(last, b[2]));
-    if _mm256_movemask_epi8(inside) != -1 {
-        return six_reads();
-    }
-    let w: [__m256; 3] = std::array::from_fn(|k| _mm256_sub_ps(u[k], fl[k]));
-    // Offsets of texels b - 1, b, b + 1 and b + 2 along numpy axes 0 and 1 (clamped, as `corners` clamps).
-    let along = |k: usize| -> [__m256i; 4] {
-        std::array::from_fn(|j| {
-            let t = _mm256_add_epi32(b[k], _mm256_set1_epi32(j as i32 - 1));
-            _mm256_mullo_epi32(_mm256_min_epi32(_mm256_max_epi32(t, zi), hi[k]), stride[k])
-        })
+    // SAFETY: the caller's contract.
+    let fresh;
+    let c = match read {
+        Some(c) => c,
+        None => match unsafe { CellRows::read(tex, u, hi, stride) } {
+            Some(c) => {
+                fresh = c;
+                &fresh
+            }
+            None => return six_reads(),
+        },
     };
-    let (o0, o1) = (along(0), along(1));
-    let o2 = _mm256_mullo_epi32(b[2], stride[2]);
+    let (o0, o1) = (&c.along[0], &c.along[1]);
     // SAFETY: the offsets address texels (the caller's contract), and texel
-    // b + 2 exists along the last axis.
+    // b + 1 exists along the last axis.
     let row = |j0: usize, j1: usize| unsafe {
-        let (lo, hi) = tex.value_pair(_mm256_add_epi32(_mm256_add_epi32(o0[j0], o1[j1]), o2));
-        lerp(lo, hi, w[2])
+        let (lo, hi) = tex.value_pair(_mm256_add_epi32(_mm256_add_epi32(o0[j0], o1[j1]), c.last));
+        lerp(lo, hi, c.w[2])
     };
-    // The cell's rows (j0, j1 in 1..=2) along the last axis from b - 1:
-    // down, own and up rows.
-    let mut cell = [[[_mm256_setzero_ps(); 3]; 2]; 2];
-    for (a, j0) in [1, 2].into_iter().enumerate() {
-        for (c, j1) in [1, 2].into_iter().enumerate() {
-            let from = _mm256_sub_epi32(_mm256_add_epi32(_mm256_add_epi32(o0[j0], o1[j1]), o2), stride[2]);
-            // SAFETY: as above; texels b - 1 to b + 2 exist along the last axis.
-            let t = unsafe { tex.value_quad(from) };
-            cell[a][c] = [lerp(t[0], t[1], w[2]), lerp(t[1], t[2], w[2]), lerp(t[2], t[3], w[2])];
-        }
-    }
-    // Rows [j0][j1] interpolated as the trilinear read does: along numpy axis 1, then 0.
-    let tri = |r: [[__m256; 2]; 2]| lerp(lerp(r[0][0], r[0][1], w[1]), lerp(r[1][0], r[1][1], w[1]), w[0]);
-    let own = |a: usize, c: usize| cell[a][c][1];
+    let own = |a: usize, b: usize| c.rows[a][b][1];
     let g2 = _mm256_sub_ps(
-        tri(std::array::from_fn(|a| std::array::from_fn(|c| cell[a][c][2]))),
-        tri(std::array::from_fn(|a| std::array::from_fn(|c| cell[a][c][0]))),
+        c.tri(std::array::from_fn(|a| std::array::from_fn(|b| c.rows[a][b][2]))),
+        c.tri(std::array::from_fn(|a| std::array::from_fn(|b| c.rows[a][b][0]))),
     );
     let g1 = _mm256_sub_ps(
-        tri([[own(0, 1), row(1, 3)], [own(1, 1), row(2, 3)]]),
-        tri([[row(1, 0), own(0, 0)], [row(2, 0), own(1, 0)]]),
+        c.tri([[own(0, 1), row(1, 3)], [own(1, 1), row(2, 3)]]),
+        c.tri([[row(1, 0), own(0, 0)], [row(2, 0), own(1, 0)]]),
     );
     let g0 = _mm256_sub_ps(
-        tri([[own(1, 0), own(1, 1)], [row(3, 1), row(3, 2)]]),
-        tri([[row(0, 1), row(0, 2)], [own(0, 0), own(0, 1)]]),
+        c.tri([[own(1, 0), own(1, 1)], [row(3, 1), row(3, 2)]]),
+        c.tri([[row(0, 1), row(0, 2)], [own(0, 0), own(0, 1)]]),
     );
     [g0, g1, g2]
 }
@@ -1628,11 +1693,12 @@ pub(super) unsafe fn gradient_at<T: Texels>(
     value: __m256,
     hi: &[__m256i; 3],
     stride: &[__m256i; 3],
+    read: Option<&CellRows>,
 ) -> [__m256; 4] {
     let set = _mm256_set1_ps;
     let (zero, one) = (_mm256_setzero_ps(), set(1.0));
     // SAFETY: the caller's contract.
-    let g = unsafe { differences(tex, u, hi, stride) };
+    let g = unsafe { differences(tex, u, hi, stride, read) };
     let ordered = _mm256_and_ps(_mm256_cmp_ps::<_CMP_ORD_Q>(g[0], g[1]), _mm256_cmp_ps::<_CMP_ORD_Q>(g[2], g[2]));
     let m = _mm256_max_ps(_mm256_max_ps(abs(g[0]), abs(g[1])), abs(g[2]));
     let some = _mm256_and_ps(ordered, _mm256_cmp_ps::<_CMP_GT_OQ>(m, zero));
@@ -1932,7 +1998,15 @@ mod tests {
                 unsafe {
                     let hi = dims.map(|d| _mm256_set1_epi32(d as i32 - 1));
                     let stride = tex.strides(dims).map(|s| _mm256_set1_epi32(s));
-                    differences(tex, u, &hi, &stride)
+                    // The sample's own value from its cell's rows, which the
+                    // differences then share: the trilinear read's, bit for bit.
+                    let rows = CellRows::read(tex, u, &hi, &stride);
+                    if let Some(rows) = &rows {
+                        let (offs, w) = corners(u, &hi, &stride);
+                        let (got, want) = (lanes(rows.value()), lanes(tex.trilinear(&offs, &w)[0]));
+                        assert_eq!(got.map(f32::to_bits), want.map(f32::to_bits), "{got:?} against {want:?}");
+                    }
+                    differences(tex, u, &hi, &stride, rows.as_ref())
                 }
             }
         }

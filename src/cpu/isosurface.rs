@@ -203,7 +203,7 @@ pub unsafe fn iso<T: Texels>(
     let normal_at = |at: __m256| {
         if f.gradient {
             // SAFETY: the texels hold the padding their reads need (the caller's contract).
-            unsafe { gradient_at(tex, p, &coords(at), zero, &hi, &stride) }
+            unsafe { gradient_at(tex, p, &coords(at), zero, &hi, &stride, None) }
         } else {
             texel_at(at)
         }

@@ -283,7 +283,7 @@ pub unsafe fn track<T: Texels>(
             continue;
         }
         // The light a point takes where it emits (compositing.wgsl `lit`).
-        let light = sample_light(f, tex, &rays, &uv, &texel, at, &hi, &stride);
+        let light = sample_light(f, tex, &rays, &uv, &texel, at, &hi, &stride, None);
         let add = add.map(|c| _mm256_blendv_ps(c, _mm256_mul_ps(c, light), shows));
         // compositing.wgsl `composite`: back to front C = c + e^-x C (the
         // emission model's sum alone), else front to back.
