@@ -137,7 +137,6 @@ mod frame;
 
 pub use bricked::BrickFrame;
 
-/// Pixels a dispatch covers.
 /// What a bind group was made for: the volume's filtering, and the value
 /// map and kind (maximum: true) of the projection bounds bound where the
 /// occupancy grid is, if any.
@@ -147,6 +146,7 @@ struct BindKey {
     projection: Option<(ValueMap, bool)>,
 }
 
+/// Pixels a dispatch covers.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 struct Rect {
     x: u32,
