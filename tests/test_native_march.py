@@ -455,17 +455,20 @@ def test_native_single_scattering_matches_the_shader(kind):
             assert np.abs(unshadowed - native[0]).max() > 10 * LEVEL
 
 
-@pytest.mark.parametrize("model", ["emission_absorption", "mip", "isosurface", "unbiased"])
+@pytest.mark.parametrize("model", ["emission_absorption", "mip", "isosurface", "unbiased", "unbiased_back_to_front"])
 def test_bricked_frames_the_native_march_does_not_cover_stay_on_the_shader(model):
     # A volume in bricks takes several textures, which the native march
-    # reads one after another for emission-absorption, the projections and
-    # the isosurface (here lit from normals stored apart); unbiased frames
-    # of bricks stay on the shader. Each matches the single texture.
+    # reads one after another for emission-absorption (unbiased too), the
+    # projections and the isosurface (here lit from normals stored apart);
+    # unbiased frames marched back to front, whose bricks the shader takes
+    # from the far end, stay on the shader. Each matches the single texture.
     d = sphere_pair()
     vol = Volume(np.round(d * 255).astype(np.uint8), compute_normal_volume(d), *BOX)
     lit = Light.directional([-0.6, -0.3, -0.8], ambient=0.25, diffuse=0.75)
-    cfg = RenderConfig.balanced().replace(model="emission_absorption" if model == "unbiased" else model,
-                                          unbiased=model == "unbiased", iso_value=0.45)
+    unbiased = model.startswith("unbiased")
+    cfg = RenderConfig.balanced().replace(model="emission_absorption" if unbiased else model,
+                                          unbiased=unbiased, iso_value=0.45,
+                                          order="back_to_front" if model.endswith("back_to_front") else "front_to_back")
     frames = {}
     for bricks in ((9, 11, 7), None):
         r = VolumeRenderer(72, 64, light=lit, brick_shape=bricks, config=cfg)
@@ -474,10 +477,10 @@ def test_bricked_frames_the_native_march_does_not_cover_stay_on_the_shader(model
                                  OpacityTransferFunction.linear(0.0, 0.4))
         r.native_march = True
         frames[bricks is None] = r.render(dtype=np.float32, premultiplied=True), r.last_frame_stats["engine"]
-    native = model != "unbiased"
+    native = model != "unbiased_back_to_front"
     assert frames[False][1] == ("native" if native else "gpu") and frames[True][1] == "native"
     assert frames[True][0][..., 3].max() > 0.3
-    if model != "unbiased":  # (each engine draws its own points)
+    if native:  # (each engine draws its own points)
         assert np.abs(frames[False][0] - frames[True][0]).max() < 0.25 * LEVEL
 
 

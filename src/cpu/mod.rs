@@ -486,9 +486,9 @@ impl RayStates {
 /// every core, leaving theirs for the bricks after it; rays that stopped
 /// are not marched again. Only the pixels whose rays can meet the brick
 /// (its box within the crop's footprint) are visited. Covers
-/// emission-absorption (plain, pre-integrated or refined), absorption and
-/// emission frames marched front to back, the projections and the
-/// isosurface. Interrupted as `render`.
+/// emission-absorption (plain, pre-integrated, refined or unbiased),
+/// absorption and emission frames marched front to back, the projections
+/// and the isosurface. Interrupted as `render`.
 pub fn render_brick(frame: &Frame, states: &mut RayStates, stop: &mut dyn FnMut() -> bool) -> Result<Stats, Interrupted> {
     let p = frame.params;
     let (w, h) = (p.width as usize, p.height as usize);
@@ -497,7 +497,7 @@ pub fn render_brick(frame: &Frame, states: &mut RayStates, stop: &mut dyn FnMut(
     let models = [Model::EmissionAbsorption, Model::Absorption, Model::Emission];
     let covered = frame.model.projects()
         || frame.model == Model::Isosurface
-        || models.contains(&frame.model) && !frame.unbiased && !frame.scatter;
+        || models.contains(&frame.model) && !frame.back_to_front && !frame.scatter;
     assert!(covered, "bricked frames' models");
     check(frame);
     let clear = clear::Clear::new(frame.lut, frame.preint.map(|t| (&t.texels[..], t.side)));
@@ -662,7 +662,7 @@ fn march_row(
                 return with_reader!(frame.volume, false, t => projection::project(frame, t, col0, row, out, halt, stopped));
             }
             if frame.unbiased {
-                return with_reader!(frame.volume, frame.lit, t => tracking::track(frame, t, col0, row, out, halt));
+                return with_reader!(frame.volume, frame.lit, t => tracking::track(frame, t, col0, row, out, halt, stopped));
             }
             with_reader!(frame.volume, frame.lit, t => avx2::march(frame, clear, t, col0, row, out, halt, stopped))
         }

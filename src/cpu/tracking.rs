@@ -5,8 +5,8 @@
 //! logarithms; then the eight points are read, lit and composited together.
 
 use super::avx2::{
-    corners, exp_nonpositive, int_lanes, lanes, ln, lut_rgba, neg_log_one_minus, sample_light, voxel_axes, Spans,
-    Texels,
+    channel, corners, exp_nonpositive, int_lanes, lanes, lanes_of, ln, lut_rgba, neg_log_one_minus, sample_light,
+    truncated_here, voxel_axes, Spans, Texels,
 };
 use super::rays8::hash32;
 use super::cells::byte;
@@ -46,7 +46,12 @@ fn next_gap(state: __m256i, rate: __m256) -> (__m256, __m256i) {
 }
 
 /// Pixels col0..col0 + 8 of `row` of an unbiased frame (emission–absorption,
-/// absorption or emission, either marching order; one pass, one texture).
+/// absorption or emission, either marching order, in one texture; front to
+/// back in a brick). With `stopped_before` (a brick of a bricked frame, as
+/// `avx2::march` takes it): `out` holds each ray's state, which the walk
+/// goes on from and leaves there, and the lanes whose rays have stopped.
+/// A block's points come from its own stream, so each brick draws the
+/// points of its window that the one texture would.
 ///
 /// Stops early (its pixels then are garbage) once `halt` is set.
 ///
@@ -62,6 +67,7 @@ pub unsafe fn track<T: Texels>(
     row: u32,
     out: &mut [[f32; 4]; TILE],
     halt: &AtomicBool,
+    mut stopped_before: Option<&mut u8>,
 ) -> Stats {
     let p = f.params;
     let dims = f.volume.dims;
@@ -168,6 +174,15 @@ pub unsafe fn track<T: Texels>(
     let (mut taken, mut blocks) = (zi, zi);
     let mut stopped = zero;
     let emission = f.model == Model::Emission;
+    if let Some(before) = stopped_before.as_deref() {
+        // The rays go on from their state (compositing.wgsl
+        // `start_integration`); a brick's rays march front to back.
+        debug_assert!(!back, "bricks of unbiased frames march front to back");
+        done = _mm256_or_ps(done, lanes_of(*before));
+        color = std::array::from_fn(|c| _mm256_and_ps(channel(out, c), rays.hit));
+        tau = _mm256_and_ps(channel(out, 3), rays.hit);
+        trans = exp_nonpositive(_mm256_sub_ps(zero, tau));
+    }
     let roll_seed = seti(crate::model::hash32(p.jitter_seed ^ 0x2545_f491) as i32);
     let q = 1.0 - p.threshold;
     let (q_v, q_depth) = (set(q), set(if q > 0.0 { -q.ln() } else { 0.0 }));
@@ -355,6 +370,21 @@ pub unsafe fn track<T: Texels>(
     let (counts, steps) = (int_lanes(taken), int_lanes(n));
     let hits = _mm256_movemask_ps(rays.hit);
     let mut stats = Stats::default();
+    if let Some(before) = stopped_before.as_deref_mut() {
+        let earlier = *before;
+        let (lo, hi) = (int_lanes(rays.lo), int_lanes(rays.hi));
+        for l in (0..TILE).filter(|l| hits & (1 << l) != 0 && earlier & (1 << l) == 0) {
+            stats.samples += counts[l] as u64;
+            let was_stopped = stopped & (1 << l) != 0;
+            let want = needed[l] as u32;
+            if truncated_here(lo[l], hi[l], steps[l], want, was_stopped) {
+                stats.truncated_needed = stats.truncated_needed.max(want);
+            }
+            out[l] = [color[0][l] + color_b[0][l], color[1][l] + color_b[1][l], color[2][l] + color_b[2][l], tau[l]];
+            *before |= (was_stopped as u8) << l;
+        }
+        return stats;
+    }
     for l in 0..TILE {
         if hits & (1 << l) == 0 {
             out[l] = [0.0; 4];

@@ -6,7 +6,7 @@ use crate::cpu::Model as CpuModel;
 use crate::gpu::bindings;
 use crate::error::{try_vec, Error};
 use crate::gpu::params::{world_unit, FrameInputs, Params};
-use crate::gpu::pipeline::{dispatch_groups, Layout, Variant};
+use crate::gpu::pipeline::{dispatch_groups, marches_back_to_front, Layout, Variant};
 use crate::gpu::plan::{plan, PassPlan};
 use crate::gpu::readback::read_buffers;
 use crate::gpu::resources::{readback_buffer, PreintKey, RayState};
@@ -191,12 +191,16 @@ impl GpuRenderer {
     /// Whether a bricked frame under `cfg` is marched natively, brick after
     /// brick: the adapter is a CPU that runs the march (whose bricks then
     /// keep their texels, `set_brick`), and the frame is emission-absorption
-    /// (plain, pre-integrated or refined), absorption or emission, marched
-    /// front to back, a projection or the isosurface. Unbiased frames stay
-    /// on the shader.
+    /// (plain, pre-integrated, refined or unbiased), absorption or emission,
+    /// marched front to back, a projection or the isosurface. Unbiased
+    /// frames marched back to front stay on the shader, which takes their
+    /// bricks from the far end (the native march takes the others' front
+    /// to back).
     pub(super) fn native_bricks(&self, cfg: &RenderConfig) -> bool {
         let covered = match cfg.model {
-            Model::EmissionAbsorption | Model::Absorption | Model::Emission => !cfg.unbiased,
+            Model::EmissionAbsorption | Model::Absorption | Model::Emission => {
+                !(cfg.unbiased && marches_back_to_front(cfg))
+            }
             Model::Mip | Model::MinIp | Model::Average | Model::Isosurface => true,
             Model::SingleScattering => false,
         };
