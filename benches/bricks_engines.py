@@ -4,11 +4,13 @@ shader on lavapipe, and both against the same volume in one texture.
 
 For each volume (the synthetic torus and ball of benches/scale.py), brick
 size and frame (balanced, balanced pre-integrated, maximum intensity
-projection, isosurface), a single-texture renderer and two bricked ones (native march
+projection, isosurface, balanced unbiased), a single-texture renderer and two bricked ones (native march
 on and off) are loaded side by side, every brick resident; each renders a
 warm-up frame, then --frames frames in turn, and the medians are compared.
 The images are compared with the single texture's (premultiplied, in 8-bit
-levels).
+levels); unbiased frames whose segments take their cells' rates draw each
+brick's points at its own cells' rates, and match the single texture in
+the mean only.
 
 Run: .venv/bin/python benches/bricks_engines.py [--sizes 256,512] [--frames 5]
 
@@ -37,6 +39,7 @@ FRAMES = {
     "balanced, pre-integrated": RenderConfig.balanced().replace(pre_integrated=True),
     "maximum intensity": RenderConfig.balanced().replace(model="mip"),
     "isosurface 0.3": RenderConfig.balanced().replace(model="isosurface", iso_value=0.3),
+    "balanced, unbiased": RenderConfig.balanced().replace(unbiased=True),
 }
 
 
