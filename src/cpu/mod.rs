@@ -19,8 +19,9 @@
 //! isosurface (`isosurface`) and unbiased frames (`tracking`), from a
 //! volume held in one texture
 //! (float32, float16 or 16-bit fixed-point texels, or 8- and 16-bit codes);
-//! and a bricked volume's integrals, projections and isosurface brick after brick
-//! (`render_brick`), each ray's state kept in memory between bricks.
+//! and a bricked volume's integrals (unbiased ones marched front to back),
+//! projections and isosurface brick after brick (`render_brick`), each
+//! ray's state kept in memory between bricks.
 //! Everything else stays on the GPU path, whose images these match
 //! (tests/test_native_march.py, tests/test_bricks.py).
 
