@@ -67,11 +67,8 @@ CONFIGS = {
     "mip_truncated": {"model": "mip", "max_steps": 40},
 }
 # Where the only adapter is a CPU the native march renders bricked frames
-# too, all but unbiased ones marched back to front (whose bricks the shader
-# takes from the far end): both renderers of a comparison run on one engine.
-SHADER_ONLY = {"unbiased_back_to_front"}
-CASES = [(engine, name) for engine in ("shader", "native") for name in sorted(CONFIGS)
-         if engine == "shader" or name not in SHADER_ONLY]
+# too: both renderers of a comparison run on one engine.
+CASES = [(engine, name) for engine in ("shader", "native") for name in sorted(CONFIGS)]
 
 
 def loaded_pair(native):
@@ -105,7 +102,7 @@ def test_bricked_frame_equals_single_texture(request, engine, name):
     # a segment marched twice or skipped, or a ray marched on after it
     # stopped, costs whole levels.
     whole, bricked = request.getfixturevalue("native_pair" if engine == "native" else "pair")
-    runs = "native" if engine == "native" and device_limits()["native_march"] and name not in SHADER_ONLY else "gpu"
+    runs = "native" if engine == "native" and device_limits()["native_march"] else "gpu"
     cfg = config(**CONFIGS[name])
     # Refined frames pick the segments they refine from each brick's own
     # slopes, which moves pixels of alpha ~1e-3 by 0.02 level: their

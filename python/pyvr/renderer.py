@@ -884,8 +884,8 @@ class VolumeRenderer:
         unlit or lit from the normals (or gradients) the volume's texels
         hold or from the values' central differences, from float32,
         float16, fixed16, uint8 or uint16 storage in one texture; the
-        projections and the isosurface; and the same frames of bricked volumes
-        (but unbiased ones marched back to front), brick after brick; 1.25x (float32) and 1.7x (fixed16)
+        projections and the isosurface; and the same frames of bricked volumes,
+        brick after brick; 1.25x (float32) and 1.7x (fixed16)
         the shader's speed per sample on the benchmark scene on a 2-core
         AMD EPYC (docs/speed.md).
         Images match the shader's within 0.25 level

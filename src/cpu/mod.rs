@@ -19,9 +19,8 @@
 //! isosurface (`isosurface`) and unbiased frames (`tracking`), from a
 //! volume held in one texture
 //! (float32, float16 or 16-bit fixed-point texels, or 8- and 16-bit codes);
-//! and a bricked volume's integrals (unbiased ones marched front to back),
-//! projections and isosurface brick after brick (`render_brick`), each
-//! ray's state kept in memory between bricks.
+//! and a bricked volume's integrals, projections and isosurface brick after brick
+//! (`render_brick`), each ray's state kept in memory between bricks.
 //! Everything else stays on the GPU path, whose images these match
 //! (tests/test_native_march.py, tests/test_bricks.py).
 
@@ -488,8 +487,9 @@ impl RayStates {
 /// are not marched again. Only the pixels whose rays can meet the brick
 /// (its box within the crop's footprint) are visited. Covers
 /// emission-absorption (plain, pre-integrated, refined or unbiased),
-/// absorption and emission frames marched front to back, the projections
-/// and the isosurface. Interrupted as `render`.
+/// absorption and emission frames (marched front to back but for unbiased
+/// ones, whose bricks come far to near for back-to-front frames), the
+/// projections and the isosurface. Interrupted as `render`.
 pub fn render_brick(frame: &Frame, states: &mut RayStates, stop: &mut dyn FnMut() -> bool) -> Result<Stats, Interrupted> {
     let p = frame.params;
     let (w, h) = (p.width as usize, p.height as usize);
@@ -498,7 +498,7 @@ pub fn render_brick(frame: &Frame, states: &mut RayStates, stop: &mut dyn FnMut(
     let models = [Model::EmissionAbsorption, Model::Absorption, Model::Emission];
     let covered = frame.model.projects()
         || frame.model == Model::Isosurface
-        || models.contains(&frame.model) && !frame.back_to_front && !frame.scatter;
+        || models.contains(&frame.model) && !frame.scatter;
     assert!(covered, "bricked frames' models");
     check(frame);
     let clear = clear::Clear::new(frame.lut, frame.preint.map(|t| (&t.texels[..], t.side)));

@@ -46,12 +46,12 @@ fn next_gap(state: __m256i, rate: __m256) -> (__m256, __m256i) {
 }
 
 /// Pixels col0..col0 + 8 of `row` of an unbiased frame (emission–absorption,
-/// absorption or emission, either marching order, in one texture; front to
-/// back in a brick). With `stopped_before` (a brick of a bricked frame, as
-/// `avx2::march` takes it): `out` holds each ray's state, which the walk
-/// goes on from and leaves there, and the lanes whose rays have stopped.
-/// A block's points come from its own stream, so each brick draws the
-/// points of its window that the one texture would.
+/// absorption or emission, either marching order; one pass). With
+/// `stopped_before` (a brick of a bricked frame, as `avx2::march` takes
+/// it): `out` holds each ray's state, which the walk goes on from and
+/// leaves there, and the lanes whose rays have stopped; back to front, the
+/// bricks come far to near. A block's points come from its own stream, so
+/// each brick draws the points of its window that the one texture would.
 ///
 /// Stops early (its pixels then are garbage) once `halt` is set.
 ///
@@ -175,9 +175,7 @@ pub unsafe fn track<T: Texels>(
     let mut stopped = zero;
     let emission = f.model == Model::Emission;
     if let Some(before) = stopped_before.as_deref() {
-        // The rays go on from their state (compositing.wgsl
-        // `start_integration`); a brick's rays march front to back.
-        debug_assert!(!back, "bricks of unbiased frames march front to back");
+        // The rays go on from their state (compositing.wgsl `start_integration`).
         done = _mm256_or_ps(done, lanes_of(*before));
         color = std::array::from_fn(|c| _mm256_and_ps(channel(out, c), rays.hit));
         tau = _mm256_and_ps(channel(out, 3), rays.hit);

@@ -249,8 +249,9 @@ impl GpuRenderer {
         // (Bricks loaded while the native march was off keep no texels for it.)
         let native = self.native_bricks(cfg) && b.slots.iter().all(|s| s.volume.as_ref().is_none_or(|v| v.cpu.is_some()));
         let mut order = b.grid.front_to_back(eye);
-        // (The native march takes back-to-front frames front to back.)
-        if marches_back_to_front(cfg) && !native {
+        // (The native march takes back-to-front frames front to back, the
+        // same sum, but for unbiased ones, whose points it draws from the far end.)
+        if marches_back_to_front(cfg) && (!native || cfg.unbiased) {
             order.reverse();
         }
         // Whether anything in a brick can show, kept per table (or iso value)

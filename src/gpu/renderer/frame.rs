@@ -6,7 +6,7 @@ use crate::cpu::Model as CpuModel;
 use crate::gpu::bindings;
 use crate::error::{try_vec, Error};
 use crate::gpu::params::{world_unit, FrameInputs, Params};
-use crate::gpu::pipeline::{dispatch_groups, marches_back_to_front, Layout, Variant};
+use crate::gpu::pipeline::{dispatch_groups, Layout, Variant};
 use crate::gpu::plan::{plan, PassPlan};
 use crate::gpu::readback::read_buffers;
 use crate::gpu::resources::{readback_buffer, PreintKey, RayState};
@@ -192,18 +192,10 @@ impl GpuRenderer {
     /// brick: the adapter is a CPU that runs the march (whose bricks then
     /// keep their texels, `set_brick`), and the frame is emission-absorption
     /// (plain, pre-integrated, refined or unbiased), absorption or emission,
-    /// marched front to back, a projection or the isosurface. Unbiased
-    /// frames marched back to front stay on the shader, which takes their
-    /// bricks from the far end (the native march takes the others' front
-    /// to back).
+    /// a projection or the isosurface.
     pub(super) fn native_bricks(&self, cfg: &RenderConfig) -> bool {
-        let covered = match cfg.model {
-            Model::EmissionAbsorption | Model::Absorption | Model::Emission => {
-                !(cfg.unbiased && marches_back_to_front(cfg))
-            }
-            Model::Mip | Model::MinIp | Model::Average | Model::Isosurface => true,
-            Model::SingleScattering => false,
-        };
+        // (Single scattering's shadow rays would cross other bricks.)
+        let covered = cfg.model != Model::SingleScattering;
         self.native_march
             && self.ctx.adapter_info.device_type == wgpu::DeviceType::Cpu
             && crate::cpu::available()
