@@ -86,7 +86,14 @@ fn interpolate<const C: usize>(
 #[target_feature(enable = "avx2,fma,f16c")]
 fn transpose_rays(rays: &[__m128; 8]) -> [__m256; 4] {
     // Rays l and l + 4 share a register, then a 4x4 transpose in each half.
-    let r: [__m256; 4] = std::array::from_fn(|l| _mm256_set_m128(rays[l + 4], rays[l]));
+    transpose_pairs(&std::array::from_fn(|l| _mm256_set_m128(rays[l + 4], rays[l])))
+}
+
+/// Four registers of two rays' channels each (register l: [ray l | ray
+/// l + 4]) as four registers of eight lanes (channel c in register c).
+#[inline]
+#[target_feature(enable = "avx2,fma,f16c")]
+fn transpose_pairs(r: &[__m256; 4]) -> [__m256; 4] {
     let (t0, t1) = (_mm256_unpacklo_ps(r[0], r[1]), _mm256_unpackhi_ps(r[0], r[1]));
     let (t2, t3) = (_mm256_unpacklo_ps(r[2], r[3]), _mm256_unpackhi_ps(r[2], r[3]));
     [
@@ -1026,25 +1033,26 @@ pub unsafe fn march<T: Texels>(
             _mm256_mullo_epi32(y0, _mm256_set1_epi32(width as i32)),
             _mm256_slli_epi32::<2>(x0),
         ));
-        let (fx, fy): ([f32; 8], [f32; 8]) = (std::mem::transmute(fx), std::mem::transmute(fy));
+        let fy_lanes: [f32; 8] = std::mem::transmute(fy);
         let base = t.texels.as_ptr() as *const f32;
-        let rays: [__m128; 8] = std::array::from_fn(|l| {
+        // Ray l's entries x0 and x0 + 1 lerped along the back value: rows y0 and y0 + 1.
+        let along_back = |l: usize| {
             // SAFETY: x0 < side and y0 < side: both rows' two entries lie
             // inside the side + 3 rows or more (`march` checks).
             let (r0, r1) = unsafe {
                 let p = base.add(at[l] as usize);
                 (_mm256_loadu_ps(p), _mm256_loadu_ps(p.add(width)))
             };
-            // [front lerp of row y0 | of row y1], then the back lerp.
-            let rows = lerp(
-                _mm256_permute2f128_ps::<0x20>(r0, r1),
-                _mm256_permute2f128_ps::<0x31>(r0, r1),
-                _mm256_set1_ps(fx[l]),
-            );
-            let (lo, hi) = (_mm256_castps256_ps128(rows), _mm256_extractf128_ps::<1>(rows));
-            _mm_fmadd_ps(_mm_sub_ps(hi, lo), _mm_set1_ps(fy[l]), lo)
+            lerp(r0, r1, _mm256_set1_ps(fy_lanes[l]))
+        };
+        // Rays l and l + 4 share a register ([ray l | ray l + 4]) for the front lerp.
+        let pairs: [__m256; 4] = std::array::from_fn(|l| {
+            let (a, b) = (along_back(l), along_back(l + 4));
+            let w = _mm256_permutevar8x32_ps(fx, _mm256_setr_epi32(l as i32, l as i32, l as i32, l as i32,
+                l as i32 + 4, l as i32 + 4, l as i32 + 4, l as i32 + 4));
+            lerp(_mm256_permute2f128_ps::<0x20>(a, b), _mm256_permute2f128_ps::<0x31>(a, b), w)
         });
-        transpose_rays(&rays)
+        transpose_pairs(&pairs)
     };
     // compositing.wgsl `opacity_variation`: the running sums of the table's
     // opacity change, read at the entries around [lo, hi].
