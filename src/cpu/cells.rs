@@ -62,7 +62,10 @@ impl Cells {
         let uc: [__m256; 3] =
             std::array::from_fn(|k| _mm256_add_ps(_mm256_fmadd_ps(self.per[k], at, self.start[k]), self.border));
         let c: [__m256i; 3] = std::array::from_fn(|k| {
-            let ci = _mm256_cvttps_epi32(_mm256_floor_ps(_mm256_mul_ps(uc[k], _mm256_set1_ps(1.0 / CELL))));
+            // Truncation, not floor: the two differ only below 0, which the
+            // clamp takes to cell 0 either way (a rounding less on the
+            // chain of lookups a pre-integrated leap waits for).
+            let ci = _mm256_cvttps_epi32(_mm256_mul_ps(uc[k], _mm256_set1_ps(1.0 / CELL)));
             _mm256_min_epi32(_mm256_max_epi32(ci, zi), self.hi[k])
         });
         let index = _mm256_add_epi32(
