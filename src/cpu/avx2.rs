@@ -717,6 +717,54 @@ pub(super) fn truncated_here(lo: i32, hi: i32, n: i32, needed: u32, stopped: boo
     !stopped && lo < hi && hi == n && (n as u32) < needed
 }
 
+/// How eight rays leave a march (`march`, `track`, `projection::project`):
+/// their samples (`taken`) and rays cut short by max_steps go into the
+/// statistics, and each lane with a ray gets `result(l)` in `out`. For a
+/// whole frame that is its pixel, and lanes without a ray are transparent.
+/// For a brick (`stopped_before` given) it is the ray's state for the next
+/// brick, rays that stopped in an earlier brick keep theirs, and the lanes
+/// whose rays stop here (`stopped`) join `stopped_before`.
+#[inline]
+#[target_feature(enable = "avx2,fma,f16c")]
+pub(super) fn leave_row(
+    rays: &super::rays8::Rays,
+    taken: __m256i,
+    stopped: __m256,
+    out: &mut [[f32; 4]; TILE],
+    mut stopped_before: Option<&mut u8>,
+    result: impl Fn(usize) -> [f32; 4],
+) -> Stats {
+    let (counts, steps, needed) = (int_lanes(taken), int_lanes(rays.n), lanes(rays.needed));
+    let (lo, hi) = (int_lanes(rays.lo), int_lanes(rays.hi));
+    let (hits, stopped) = (_mm256_movemask_ps(rays.hit), _mm256_movemask_ps(stopped));
+    let earlier = stopped_before.as_deref().copied();
+    let mut stats = Stats::default();
+    for l in 0..TILE {
+        if hits & (1 << l) == 0 || earlier.is_some_and(|e| e & (1 << l) != 0) {
+            if earlier.is_none() {
+                out[l] = [0.0; 4];
+            }
+            continue;
+        }
+        stats.samples += counts[l] as u64;
+        let was_stopped = stopped & (1 << l) != 0;
+        // (`as u32` saturates, as the scalar rule's conversion does.)
+        let want = needed[l] as u32;
+        let truncated = match earlier {
+            Some(_) => truncated_here(lo[l], hi[l], steps[l], want, was_stopped),
+            None => !was_stopped && (steps[l] as u32) < want,
+        };
+        if truncated {
+            stats.truncated_needed = stats.truncated_needed.max(want);
+        }
+        out[l] = result(l);
+        if let Some(before) = stopped_before.as_deref_mut() {
+            *before |= (was_stopped as u8) << l;
+        }
+    }
+    stats
+}
+
 #[inline]
 #[target_feature(enable = "avx2,fma,f16c")]
 fn dot3(a: &[__m256; 3], b: &[__m256; 3]) -> __m256 {
@@ -897,7 +945,7 @@ pub unsafe fn march<T: Texels>(
     row: u32,
     out: &mut [[f32; 4]; TILE],
     halt: &AtomicBool,
-    mut stopped_before: Option<&mut u8>,
+    stopped_before: Option<&mut u8>,
 ) -> Stats {
     let p = f.params;
     let dims = f.volume.dims;
@@ -1478,50 +1526,31 @@ pub unsafe fn march<T: Texels>(
         active = _mm256_andnot_ps(stopped, _mm256_and_ps(active, as_ps(_mm256_cmpgt_epi32(limit, i))));
     }
 
-    let mut lanes_out = [[0f32; 8]; 7];
-    for c in 0..3 {
-        _mm256_storeu_ps(lanes_out[c].as_mut_ptr(), _mm256_add_ps(color[c], color_b[c]));
-    }
-    _mm256_storeu_ps(lanes_out[3].as_mut_ptr(), _mm256_add_ps(tau, tau_b));
-    _mm256_storeu_ps(lanes_out[4].as_mut_ptr(), trans);
-    _mm256_storeu_ps(lanes_out[5].as_mut_ptr(), stopped);
-    let (mut counts, mut steps_n) = ([0i32; 8], [0i32; 8]);
-    _mm256_storeu_si256(counts.as_mut_ptr() as *mut __m256i, taken);
-    _mm256_storeu_si256(steps_n.as_mut_ptr() as *mut __m256i, n);
-    _mm256_storeu_ps(lanes_out[6].as_mut_ptr(), rays.needed);
-    let hits = _mm256_movemask_ps(rays.hit);
-    let mut stats = Stats::default();
-    if let Some(before) = stopped_before.as_deref_mut() {
-        let earlier = *before;
-        let (lo, hi) = (int_lanes(rays.lo), int_lanes(rays.hi));
-        for l in (0..TILE).filter(|l| hits & (1 << l) != 0 && earlier & (1 << l) == 0) {
-            stats.samples += counts[l] as u64;
-            let was_stopped = lanes_out[5][l].to_bits() != 0;
-            let needed = lanes_out[6][l] as u32;
-            if truncated_here(lo[l], hi[l], steps_n[l], needed, was_stopped) {
-                stats.truncated_needed = stats.truncated_needed.max(needed);
-            }
-            out[l] = [lanes_out[0][l], lanes_out[1][l], lanes_out[2][l], lanes_out[3][l]];
-            *before |= (was_stopped as u8) << l;
-        }
-        return stats;
-    }
-    for l in 0..TILE {
-        if hits & (1 << l) == 0 {
-            out[l] = [0.0; 4];
-            continue;
-        }
-        stats.samples += counts[l] as u64;
-        let was_stopped = lanes_out[5][l].to_bits() != 0;
-        // (`as u32` saturates, as the scalar rule's conversion does.)
-        let needed = lanes_out[6][l] as u32;
-        if !was_stopped && (steps_n[l] as u32) < needed {
-            stats.truncated_needed = stats.truncated_needed.max(needed);
-        }
-        let alpha = ray_alpha(lanes_out[3][l], lanes_out[4][l], emission);
-        out[l] = [lanes_out[0][l], lanes_out[1][l], lanes_out[2][l], alpha];
-    }
-    stats
+    let (color, tau) = (std::array::from_fn(|c| _mm256_add_ps(color[c], color_b[c])), _mm256_add_ps(tau, tau_b));
+    leave_composited(&rays, taken, stopped, (color, tau, trans), emission, out, stopped_before)
+}
+
+/// `leave_row` for compositing marches (`march`, `track`): `ray` is each
+/// lane's premultiplied colour, optical depth and transmittance. A whole
+/// frame's pixel takes its alpha from them (`ray_alpha`); a brick's state
+/// keeps the optical depth.
+#[inline]
+#[target_feature(enable = "avx2,fma,f16c")]
+pub(super) fn leave_composited(
+    rays: &super::rays8::Rays,
+    taken: __m256i,
+    stopped: __m256,
+    ray: ([__m256; 3], __m256, __m256),
+    emission: bool,
+    out: &mut [[f32; 4]; TILE],
+    stopped_before: Option<&mut u8>,
+) -> Stats {
+    let (color, tau, trans) = (ray.0.map(|c| lanes(c)), lanes(ray.1), lanes(ray.2));
+    let brick = stopped_before.is_some();
+    leave_row(rays, taken, stopped, out, stopped_before, |l| {
+        let last = if brick { tau[l] } else { ray_alpha(tau[l], trans[l], emission) };
+        [color[0][l], color[1][l], color[2][l], last]
+    })
 }
 
 /// A finished ray's alpha from its optical depth `tau` and transmittance

@@ -9,7 +9,7 @@
 //! its maximum (minimum) so far (`Frame::bounds`): the same pixel from
 //! fewer reads, by the shader's rule.
 
-use super::avx2::{channel, corners, int_lanes, lanes, lanes_of, truncated_here, voxel_axes, Spans, Texels};
+use super::avx2::{channel, corners, lanes, lanes_of, leave_row, voxel_axes, Spans, Texels};
 use super::cells::Cells;
 use super::{Frame, Model, Stats, TILE};
 use std::arch::x86_64::*;
@@ -34,7 +34,7 @@ pub unsafe fn project<T: Texels>(
     row: u32,
     out: &mut [[f32; 4]; TILE],
     halt: &AtomicBool,
-    mut stopped_before: Option<&mut u8>,
+    stopped_before: Option<&mut u8>,
 ) -> Stats {
     let p = f.params;
     let dims = f.volume.dims;
@@ -150,48 +150,22 @@ pub unsafe fn project<T: Texels>(
         going = _mm256_and_ps(going, as_ps(_mm256_cmpgt_epi32(rays.hi, i)));
     }
 
-    let (best, seen, sum, length, needed) = (lanes(best), lanes(seen), lanes(sum), lanes(length), lanes(rays.needed));
-    let stopped = lanes(stopped);
-    let (counts, steps_n) = (int_lanes(taken), int_lanes(rays.n));
-    let hits = _mm256_movemask_ps(rays.hit);
-    let mut stats = Stats::default();
-    if let Some(before) = stopped_before.as_deref_mut() {
-        let earlier = *before;
-        let (lo, hi) = (int_lanes(rays.lo), int_lanes(rays.hi));
-        for l in (0..TILE).filter(|l| hits & (1 << l) != 0 && earlier & (1 << l) == 0) {
-            stats.samples += counts[l] as u64;
-            let was_stopped = stopped[l].to_bits() != 0;
-            let needed = needed[l] as u32;
-            if truncated_here(lo[l], hi[l], steps_n[l], needed, was_stopped) {
-                stats.truncated_needed = stats.truncated_needed.max(needed);
-            }
-            out[l] = match f.model {
+    let (best, seen, sum, length) = (lanes(best), lanes(seen), lanes(sum), lanes(length));
+    let brick = stopped_before.is_some();
+    leave_row(&rays, taken, stopped, out, stopped_before, |l| {
+        let seen = seen[l].to_bits() != 0;
+        if brick {
+            return match f.model {
                 Model::Average => [sum[l], length[l], 0.0, 0.0],
-                _ => [best[l], if seen[l].to_bits() != 0 { 1.0 } else { 0.0 }, 0.0, 0.0],
+                _ => [best[l], if seen { 1.0 } else { 0.0 }, 0.0, 0.0],
             };
-            *before |= (was_stopped as u8) << l;
-        }
-        return stats;
-    }
-    for l in 0..TILE {
-        out[l] = [0.0; 4];
-        if hits & (1 << l) == 0 {
-            continue;
-        }
-        stats.samples += counts[l] as u64;
-        // (`as u32` saturates, as the scalar rule's conversion does.)
-        let needed = needed[l] as u32;
-        if stopped[l].to_bits() == 0 && (steps_n[l] as u32) < needed {
-            stats.truncated_needed = stats.truncated_needed.max(needed);
         }
         let value = match f.model {
             Model::Average if length[l] > 0.0 => sum[l] / length[l],
-            Model::Average => continue,
-            _ if seen[l].to_bits() != 0 => best[l],
-            _ => continue,
+            _ if f.model != Model::Average && seen => best[l],
+            _ => return [0.0; 4],
         };
         let c = crate::transfer::eval_lut(f.lut, value as f64).map(|c| c as f32);
-        out[l] = [c[0] * c[3], c[1] * c[3], c[2] * c[3], c[3]];
-    }
-    stats
+        [c[0] * c[3], c[1] * c[3], c[2] * c[3], c[3]]
+    })
 }

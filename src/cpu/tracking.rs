@@ -5,8 +5,8 @@
 //! logarithms; then the eight points are read, lit and composited together.
 
 use super::avx2::{
-    channel, corners, exp_nonpositive, int_lanes, lanes, lanes_of, ln, lut_rgba, neg_log_one_minus, sample_light,
-    truncated_here, voxel_axes, Spans, Texels,
+    channel, corners, exp_nonpositive, lanes_of, leave_composited, ln, lut_rgba, neg_log_one_minus, sample_light,
+    voxel_axes, Spans, Texels,
 };
 use super::rays8::hash32;
 use super::cells::byte;
@@ -67,7 +67,7 @@ pub unsafe fn track<T: Texels>(
     row: u32,
     out: &mut [[f32; 4]; TILE],
     halt: &AtomicBool,
-    mut stopped_before: Option<&mut u8>,
+    stopped_before: Option<&mut u8>,
 ) -> Stats {
     let p = f.params;
     let dims = f.volume.dims;
@@ -362,40 +362,6 @@ pub unsafe fn track<T: Texels>(
         }
     }
 
-    let (color, tau) = (color.map(|c| lanes(c)), lanes(_mm256_add_ps(tau, tau_b)));
-    let color_b = color_b.map(|c| lanes(c));
-    let (trans, stopped, needed) = (lanes(trans), _mm256_movemask_ps(stopped), lanes(rays.needed));
-    let (counts, steps) = (int_lanes(taken), int_lanes(n));
-    let hits = _mm256_movemask_ps(rays.hit);
-    let mut stats = Stats::default();
-    if let Some(before) = stopped_before.as_deref_mut() {
-        let earlier = *before;
-        let (lo, hi) = (int_lanes(rays.lo), int_lanes(rays.hi));
-        for l in (0..TILE).filter(|l| hits & (1 << l) != 0 && earlier & (1 << l) == 0) {
-            stats.samples += counts[l] as u64;
-            let was_stopped = stopped & (1 << l) != 0;
-            let want = needed[l] as u32;
-            if truncated_here(lo[l], hi[l], steps[l], want, was_stopped) {
-                stats.truncated_needed = stats.truncated_needed.max(want);
-            }
-            out[l] = [color[0][l] + color_b[0][l], color[1][l] + color_b[1][l], color[2][l] + color_b[2][l], tau[l]];
-            *before |= (was_stopped as u8) << l;
-        }
-        return stats;
-    }
-    for l in 0..TILE {
-        if hits & (1 << l) == 0 {
-            out[l] = [0.0; 4];
-            continue;
-        }
-        stats.samples += counts[l] as u64;
-        // (`as u32` saturates, as the scalar rule's conversion does.)
-        let want = needed[l] as u32;
-        if stopped & (1 << l) == 0 && (steps[l] as u32) < want {
-            stats.truncated_needed = stats.truncated_needed.max(want);
-        }
-        let alpha = super::avx2::ray_alpha(tau[l], trans[l], emission);
-        out[l] = [color[0][l] + color_b[0][l], color[1][l] + color_b[1][l], color[2][l] + color_b[2][l], alpha];
-    }
-    stats
+    let (color, tau) = (std::array::from_fn(|c| _mm256_add_ps(color[c], color_b[c])), _mm256_add_ps(tau, tau_b));
+    leave_composited(&rays, taken, stopped, (color, tau, trans), emission, out, stopped_before)
 }
