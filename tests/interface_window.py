@@ -29,10 +29,10 @@ def play():
     x, y = ui.image_display.ax.transAxes.transform((0.5, 0.5))
     c.callbacks.process("button_press_event", MouseEvent("button_press_event", c, x, y, button=1))
     for i in range(4):
-        c.callbacks.process("motion_notify_event", MouseEvent("motion_notify_event", c, x + 6 * (i + 1), y, button=1))
+        c.callbacks.process("motion_notify_event", MouseEvent("motion_notify_event", c, x + 20 * (i + 1), y, button=1))
         c.flush_events()
     seen["drag_frame"] = list(ui.image_display.image.get_array().shape)
-    c.callbacks.process("button_release_event", MouseEvent("button_release_event", c, x + 24, y, button=1))
+    c.callbacks.process("button_release_event", MouseEvent("button_release_event", c, x + 80, y, button=1))
     seen["release_frame"] = list(ui.image_display.image.get_array().shape)
     c.callbacks.process("scroll_event", MouseEvent("scroll_event", c, x, y, button="up", step=1))
     seen["scroll_frame"] = list(ui.image_display.image.get_array().shape)

@@ -8,6 +8,7 @@ package. Entries are ``.npz`` files read without pickle.
 
 import hashlib
 import os
+import warnings
 from pathlib import Path
 from typing import Optional, Tuple
 
@@ -26,10 +27,10 @@ CACHE_DIR = _cache_dir()
 Histogram = Tuple[np.ndarray, np.ndarray]
 
 
-def compute_volume_hash(data: np.ndarray, value_range: Tuple[float, float] = (0.0, 1.0)) -> str:
+def compute_volume_hash(volume_data: np.ndarray, value_range: Tuple[float, float] = (0.0, 1.0)) -> str:
     """sha256 (hex) of the shape, dtype, value range and 1000 evenly spaced
     voxels: cheap at any size, and different for the usual different volumes."""
-    a = np.asarray(data)
+    a = np.asarray(volume_data)
     flat = a.reshape(-1)
     idx = np.linspace(0, flat.size - 1, num=min(1000, flat.size)).astype(np.int64) if flat.size else []
     h = hashlib.sha256()
@@ -40,7 +41,7 @@ def compute_volume_hash(data: np.ndarray, value_range: Tuple[float, float] = (0.
     return h.hexdigest()
 
 
-def compute_log_histogram(data: np.ndarray, num_bins: int = 256,
+def compute_log_histogram(volume_data: np.ndarray, num_bins: int = 256,
                           value_range: Tuple[float, float] = (0.0, 1.0)) -> Histogram:
     """(bin_edges, log10(counts + 1)) of the finite voxels over ``value_range``
     (the values the transfer function's [0, 1] spans; default pyvr's)."""
@@ -49,7 +50,7 @@ def compute_log_histogram(data: np.ndarray, num_bins: int = 256,
     lo, hi = (float(v) for v in value_range)
     if not (np.isfinite(lo) and np.isfinite(hi) and hi > lo):
         raise ValueError(f"value_range must be two finite numbers, low < high, got {value_range!r}")
-    counts, edges = np.histogram(np.asarray(data).reshape(-1), bins=int(num_bins), range=(lo, hi))
+    counts, edges = np.histogram(np.asarray(volume_data).reshape(-1), bins=int(num_bins), range=(lo, hi))
     return edges, np.log10(counts.astype(np.float64) + 1.0)
 
 
@@ -57,8 +58,8 @@ def _path(key: str) -> Path:
     return CACHE_DIR / f"{key}.npz"
 
 
-def get_cached_histogram(data: np.ndarray, value_range=(0.0, 1.0)) -> Optional[Histogram]:
-    path = _path(compute_volume_hash(data, value_range))
+def get_cached_histogram(volume_data: np.ndarray, value_range=(0.0, 1.0)) -> Optional[Histogram]:
+    path = _path(compute_volume_hash(volume_data, value_range))
     try:
         with np.load(path, allow_pickle=False) as f:
             return f["bin_edges"], f["log_counts"]
@@ -66,24 +67,25 @@ def get_cached_histogram(data: np.ndarray, value_range=(0.0, 1.0)) -> Optional[H
         return None
 
 
-def cache_histogram(data: np.ndarray, bin_edges: np.ndarray, log_counts: np.ndarray, value_range=(0.0, 1.0)) -> None:
-    """Store a histogram; a cache folder that cannot be written is skipped."""
-    path = _path(compute_volume_hash(data, value_range))
+def cache_histogram(volume_data: np.ndarray, bin_edges: np.ndarray, counts: np.ndarray, value_range=(0.0, 1.0)) -> None:
+    """Store a histogram; a cache folder that cannot be written is skipped
+    with a warning."""
+    path = _path(compute_volume_hash(volume_data, value_range))
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         tmp = path.with_suffix(f".{os.getpid()}.tmp.npz")
-        np.savez(tmp, bin_edges=bin_edges, log_counts=log_counts)
+        np.savez(tmp, bin_edges=bin_edges, log_counts=counts)
         os.replace(tmp, path)  # readers never see a half-written file
-    except OSError:
-        pass
+    except OSError as e:
+        warnings.warn(f"Failed to cache histogram: {e}", UserWarning, stacklevel=2)
 
 
-def get_or_compute_histogram(data: np.ndarray, num_bins: int = 256, value_range=(0.0, 1.0)) -> Histogram:
-    cached = get_cached_histogram(data, value_range)
+def get_or_compute_histogram(volume_data: np.ndarray, num_bins: int = 256, value_range=(0.0, 1.0)) -> Histogram:
+    cached = get_cached_histogram(volume_data, value_range)
     if cached is not None and len(cached[1]) == num_bins:
         return cached
-    edges, counts = compute_log_histogram(data, num_bins, value_range)
-    cache_histogram(data, edges, counts, value_range)
+    edges, counts = compute_log_histogram(volume_data, num_bins, value_range)
+    cache_histogram(volume_data, edges, counts, value_range)
     return edges, counts
 
 

@@ -1,6 +1,15 @@
 """InteractiveVolumeRenderer: pyvr 0.4.1's matplotlib window around a
 VolumeRenderer, with a camera, an opacity editor, colormap and quality
-selectors, and cheap frames while the user drags."""
+selectors, and cheap frames while the user drags.
+
+The window drives its renderer through pyvr 0.4.1's renderer API only
+(``set_camera``, ``set_config``, ``get_light``/``set_light``,
+``load_volume``, ``set_transfer_functions``, ``render_to_pil``), so a
+wrapper, a stand-in or pyvr 0.4.1's own renderer works in it. With
+:class:`pyvr.VolumeRenderer` (or a subclass) it also uses what only that
+renderer has: cheap frames while dragging, refinement of a still view, and
+the histogram in the transfer function's value range.
+"""
 
 import time
 import warnings
@@ -8,16 +17,20 @@ from collections import deque
 from datetime import datetime
 from typing import Optional
 
+import matplotlib
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.backend_tools import Cursors
+from matplotlib.gridspec import GridSpec
 
+from .. import renderer as _engine
 from .._numbers import check_count
 from ..camera import Camera, CameraController
 from ..config import RenderConfig
 from ..interaction import DragQuality
 from ..lighting import Light
 from ..refinement import Refinement
-from ..renderer import VolumeRenderer
+from ..renderer import VolumeRenderer  # module level: code that patches it keeps working
 from ..transferfunctions import ColorTransferFunction, OpacityTransferFunction
 from ..transferfunctions.value_range import storage_unit
 from ..volume import Volume
@@ -25,28 +38,22 @@ from . import cache
 from .state import PRESETS, InterfaceState
 from .widgets import ColorSelector, ImageDisplay, OpacityEditor, PresetSelector
 
-# Matplotlib's default keys that would fight the interface's own. "quit" keeps
-# ctrl+w and loses only q, which toggles auto-quality here.
-_CLEARED_KEYMAPS = ("fullscreen", "home", "back", "forward", "pan", "zoom", "save", "grid", "yscale", "xscale")
+# Matplotlib's default keys that would fight the interface's own. "quit"
+# keeps ctrl+w and loses only q, which toggles auto-quality here.
+_CLEARED_KEYMAPS = ("fullscreen", "home", "back", "forward", "pan", "zoom", "save", "quit", "grid", "yscale",
+                    "xscale")
 
-HELP = (
-    "drag: rotate  scroll: zoom  keys: r reset,\n"
-    "s save, f fps, h histogram, l light link,\n"
-    "q auto-quality, t trackball/orbit, esc,\n"
-    "del remove point, ctrl+w close"
+_CONTROLS = (
+    "Mouse Controls:\n"
+    "  Image: Drag=rotate, Scroll=zoom\n"
+    "  Opacity: L-click=add/select, R-click=remove, Drag=move\n\n"
+    "Keyboard Shortcuts:\n"
+    "  r: Reset view          s: Save image\n"
+    "  f: Toggle FPS          h: Toggle histogram\n"
+    "  l: Toggle light link   q: Toggle auto-quality\n"
+    "  t: Toggle control mode Esc: Deselect\n"
+    "  Del: Remove selected   ctrl+w: Close\n"
 )
-
-
-def _detect_preset_name(config: RenderConfig, volume: Optional[Volume] = None) -> str:
-    """The preset ``config`` is (pyvr's, or its box-crossing form), else "balanced"."""
-    def key(c):
-        return (c.step_size, c.max_steps, c.early_ray_termination, c.opacity_threshold)
-
-    for name in PRESETS:
-        p = getattr(RenderConfig, name)()
-        if key(config) == key(p) or (volume is not None and key(config) == key(_crossing(p, volume))):
-            return name
-    return "balanced"
 
 
 def _crossing(cfg: RenderConfig, volume: Volume) -> RenderConfig:
@@ -56,6 +63,10 @@ def _crossing(cfg: RenderConfig, volume: Volume) -> RenderConfig:
     lo, hi = np.asarray(volume.min_bounds, np.float64), np.asarray(volume.max_bounds, np.float64)
     needed = int(np.ceil(np.linalg.norm(hi - lo) / cfg.step_size)) + 2
     return cfg.with_max_steps(needed) if needed > cfg.max_steps else cfg
+
+
+def _on_off(flag) -> str:
+    return "ON" if flag else "OFF"
 
 
 class InteractiveVolumeRenderer:
@@ -90,15 +101,14 @@ class InteractiveVolumeRenderer:
         self.renderer = VolumeRenderer(width=width, height=height, config=config, light=light)
         self.renderer.set_camera(camera)
         self.renderer.load_volume(volume)
+        # What only pyvr's own renderer offers is used only with it.
+        self._native = isinstance(self.renderer, _engine.VolumeRenderer)
         self.camera_controller = CameraController(camera)
         self.state = InterfaceState()
-        self.state.current_preset_name = _detect_preset_name(config, volume)
+        self.state.current_preset_name = self._detect_preset_name(config)
         self.state.light_linked_to_camera = light.is_linked
-        self.drag_quality = DragQuality(self.renderer, target_fps=target_fps)
-        self.refinement = Refinement(self.renderer, refine_frames)
-        self._refine_timer = None
-        self.histogram_bin_edges = None
-        self.histogram_log_counts = None
+        self.drag_quality = DragQuality(self.renderer, target_fps=target_fps) if self._native else None
+        self.refinement = Refinement(self.renderer, refine_frames) if self._native else None
         self.image_display: Optional[ImageDisplay] = None
         self.opacity_editor: Optional[OpacityEditor] = None
         self.color_selector: Optional[ColorSelector] = None
@@ -106,12 +116,11 @@ class InteractiveVolumeRenderer:
         self.fig = None
         self.info_text = None
         self._cached_image: Optional[np.ndarray] = None
-        self._last_render_time = 0.0
+        self._last_render_time = 0.0  # time.time() of the latest frame
         self._min_render_interval = 0.05
         self._interacting = False
         self._drawn = False
-        self._scroll_timer = None
-        self._pending_timer = None
+        self._timers = {}
         self._event_time: Optional[float] = None
         # Event-to-pixels seconds of the latest frames, drag and full.
         self.drag_latencies: deque = deque(maxlen=200)
@@ -120,6 +129,20 @@ class InteractiveVolumeRenderer:
         self._load_histogram()
 
     # -- model -------------------------------------------------------------
+    def _detect_preset_name(self, config: RenderConfig) -> str:
+        """The preset ``config`` is (pyvr's, or its box-crossing form), else "balanced"."""
+        def key(c):
+            return (c.step_size, c.max_steps, c.early_ray_termination, c.opacity_threshold)
+
+        for name in PRESETS:
+            p = getattr(RenderConfig, name)()
+            if key(config) in (key(p), key(_crossing(p, self.volume))):
+                return name
+        return "balanced"
+
+    def _preset(self, name: str) -> RenderConfig:
+        return _crossing(getattr(RenderConfig, name)(), self.volume)
+
     def _update_transfer_functions(self) -> None:
         ctf = ColorTransferFunction.from_colormap(self.state.current_colormap)
         otf = OpacityTransferFunction(control_points=list(self.state.control_points))
@@ -127,10 +150,9 @@ class InteractiveVolumeRenderer:
         self.state.needs_tf_update = False
 
     def _tf_data_range(self):
-        r = self.renderer.value_range
-        if r is not None:
-            return r
-        return (0.0, storage_unit(self.volume.data.dtype))
+        """The values the transfer function's [0, 1] spans."""
+        r = self.renderer.value_range if self._native else None
+        return r if r is not None else (0.0, storage_unit(self.volume.data.dtype))
 
     def _load_histogram(self) -> None:
         print("Loading histogram...")
@@ -138,53 +160,93 @@ class InteractiveVolumeRenderer:
             self.volume.data, 256, self._tf_data_range())
         print("Histogram loaded.")
 
-    def _render_volume(self, cheap: bool = False) -> np.ndarray:
-        """The frame for the controller's camera: (H, W, 4) uint8 RGBA, top
-        row first (smaller while interacting). On a rendering error it warns
-        and returns a black RGBA frame of the view's size."""
+    @property
+    def _cheap(self) -> bool:
+        return self._native and self._interacting and self.state.auto_quality_enabled
+
+    def _render_volume(self) -> np.ndarray:
+        """The frame for the controller's camera, top row first (smaller
+        while interacting); the cached frame while nothing changed. On a
+        rendering error it warns and returns pyvr's placeholder, a black
+        (height, width, 3) frame."""
+        if not self.state.needs_render and self._cached_image is not None:
+            return self._cached_image
         try:
             self.renderer.set_camera(self.camera_controller.params)
-            if cheap:
+            if self._cheap:
                 img = self.drag_quality.render_drag(origin="upper")
-            else:
+            elif self._native:
                 img = self.drag_quality.render_full(origin="upper")
+            else:
+                img = np.array(self.renderer.render_to_pil())
         except Exception as e:  # the window must survive any one bad frame
             warnings.warn(f"Rendering error: {e}", RuntimeWarning, stacklevel=2)
-            img = np.zeros((self.height, self.width, 4), np.uint8)
-            img[..., 3] = 255
+            return np.zeros((self.height, self.width, 3), np.uint8)
         self._cached_image = img
         return img
 
-    @property
-    def _cheap(self) -> bool:
-        return self._interacting and self.state.auto_quality_enabled
-
     # -- display -----------------------------------------------------------
-    def _update_display(self, force: bool = False) -> None:
-        now = time.perf_counter()
-        if not force and now - self._last_render_time < self._min_render_interval:
-            # Too soon after the last frame: render this state a moment
-            # later unless another event does first (the mouse may stop here).
-            self.state.needs_render = True
-            self._render_later()
-            return
+    def _should_render(self) -> bool:
+        """Whether the throttle lets a frame through now (and, if so, starts
+        the next interval)."""
+        now = time.time()
+        if now - self._last_render_time > self._min_render_interval:
+            self._last_render_time = now
+            return True
+        return False
+
+    def _update_display(self, force_render: bool = False) -> None:
+        """Bring everything shown up to date with the state: the transfer
+        functions, a camera-linked light, the frame (throttled unless
+        ``force_render``; a throttled frame is rendered a moment later
+        unless another event comes first) and the opacity editor."""
+        self._refresh_image(force_render)
+        if self.opacity_editor is not None:
+            self.opacity_editor.update_plot(self.state.control_points, self.state.selected_control_point)
+
+    def _refresh_image(self, force_render: bool = False) -> None:
         if self.state.needs_tf_update:
             self._update_transfer_functions()
+            self.state.needs_render = True
+        self._follow_camera_with_light()
+        if not self.state.needs_render:
+            return
+        if force_render or self._should_render():
+            self._show_frame()
+        else:
+            self._later("pending", max(1, int(self._min_render_interval * 1000)), self._render_pending)
+
+    def _follow_camera_with_light(self) -> None:
+        light = self.renderer.get_light()
+        if not light.is_linked:
+            return
+        try:
+            light.update_from_camera(self.camera_controller.params)
+            self.renderer.set_light(light)
+            self.state.needs_render = True
+        except Exception as e:
+            print(f"Warning: Failed to update linked light: {e}")
+            light.unlink_from_camera()  # one failure, not one per frame
+            self.state.light_linked_to_camera = False
+
+    def _show_frame(self) -> None:
         cheap = self._cheap
-        img = self._render_volume(cheap=cheap)
-        self._last_render_time = time.perf_counter()
+        img = self._render_volume()
+        self._last_render_time = time.time()
         self.state.needs_render = False
         if self.image_display is None:
             return
+        self.image_display.redraw_on_update = False  # drawn below: blitted while cheap
         self.image_display.update_image(img)
         if cheap:
             self.refinement.stop()
-            self._blit_image()
+            if self.fig is not None:
+                self._blit(self.image_display)
         else:
-            self._update_info()
-            self.fig.canvas.draw_idle()
-            self.refinement.restart()
-            self._refine_later()
+            self._update_status_display()
+            if self.refinement is not None:
+                self.refinement.restart()
+                self._refine_later()
         if self._event_time is not None:
             latency = time.perf_counter() - self._event_time
             if cheap:
@@ -194,31 +256,30 @@ class InteractiveVolumeRenderer:
                 self.release_latencies.append(latency)
             self._event_time = None
 
-    def _render_later(self) -> None:
+    def _later(self, name: str, interval_ms: int, callback) -> None:
+        """(Re)start the single-shot timer ``name`` (none before the figure)."""
         if self.fig is None:
             return
-        self._restart_timer("_pending_timer", max(1, int(self._min_render_interval * 1000)), self._render_pending)
-
-    def _refine_later(self) -> None:
-        if self.fig is None or not self.refinement.pending:
-            return
-        # Between frames the event loop runs: any event is handled first.
-        self._restart_timer("_refine_timer", 1, self._refine_step)
-
-    def _restart_timer(self, name: str, interval_ms: int, callback) -> None:
-        """(Re)start the single-shot timer kept in attribute ``name``."""
-        timer = getattr(self, name)
+        timer = self._timers.get(name)
         if timer is None:
-            timer = self.fig.canvas.new_timer(interval=interval_ms)
+            timer = self._timers[name] = self.fig.canvas.new_timer(interval=interval_ms)
             timer.single_shot = True
             timer.add_callback(callback)
-            setattr(self, name, timer)
         timer.stop()
         timer.start()
 
+    def _render_pending(self) -> None:
+        if self.state.needs_render:
+            self._update_display(force_render=True)
+
+    def _refine_later(self) -> None:
+        if self.refinement.pending:
+            # Between frames the event loop runs: any event is handled first.
+            self._later("refine", 1, self._refine_step)
+
     def _refine_step(self) -> None:
         """One more unbiased frame into the still view's running mean."""
-        if self._interacting or not self.refinement.pending:
+        if self._interacting or self.refinement is None or not self.refinement.pending:
             return
         try:
             img = self.refinement.step()
@@ -232,73 +293,104 @@ class InteractiveVolumeRenderer:
             self.fig.canvas.draw_idle()
         self._refine_later()
 
-    def _render_pending(self) -> None:
-        if self.state.needs_render:
-            self._update_display(force=True)
-
-    def _blit_image(self) -> None:
-        """Redraw only the image axes (a full figure redraw costs more than a
-        cheap frame); falls back to a full redraw before the first one."""
+    def _blit(self, widget) -> None:
+        """Redraw only ``widget``'s axes (a full figure redraw costs more than
+        a cheap frame); a full redraw before the first one."""
         canvas = self.fig.canvas
-        ax = self.image_display.ax
         if not getattr(canvas, "supports_blit", False) or not self._drawn:
-            canvas.draw()
+            canvas.draw_idle()
             return
-        for artist in self.image_display.artists():
-            ax.draw_artist(artist)
-        canvas.blit(ax.bbox)
+        for artist in widget.artists():
+            widget.ax.draw_artist(artist)
+        canvas.blit(widget.ax.bbox)
 
-    def _update_info(self) -> None:
-        if self.info_text is None:
-            return
-        c = self.camera_controller.params
-        light = "follows camera" if self.state.light_linked_to_camera else "fixed"
-        quality = "on" if self.state.auto_quality_enabled else "off"
-        lines = [
-            f"camera: az {np.degrees(c.azimuth):.0f}, el {np.degrees(c.elevation):.0f} deg, d {float(c.distance):.2f}",
-            f"rotate: {self.state.camera_control_mode}   light: {light}",
-            f"preset: {self.state.current_preset_name}   auto-quality: {quality}",
-            f"dragging: {self.drag_quality.describe()}",
-            f"last frame: {self.drag_quality.last_render_seconds * 1e3:.0f} ms",
-            HELP,
+    def _get_full_info_text(self) -> str:
+        """The info panel: the controls, then the current status."""
+        light = self.renderer.get_light()
+        status = [
+            "",
+            "Current Status:",
+            f"  Control Mode: {self.state.camera_control_mode.capitalize()}",
+            f"  Preset: {self.state.current_preset_name}",
+            f"  FPS: {_on_off(self.state.show_fps)}",
+            f"  Histogram: {_on_off(self.state.show_histogram)}",
+            f"  Light Linked: {'YES' if light.is_linked else 'NO'}",
+            f"  Auto-Quality: {_on_off(self.state.auto_quality_enabled)}",
         ]
-        self.info_text.set_text("\n".join(lines))
+        offsets = light.get_offsets() if light.is_linked else None
+        if isinstance(offsets, dict):
+            status.append(f"    (offsets: az={offsets['azimuth']:.2f}, el={offsets['elevation']:.2f})")
+        if self._native:
+            c = self.camera_controller.params
+            status += [
+                f"  Camera: az {np.degrees(c.azimuth):.0f}, el {np.degrees(c.elevation):.0f} deg, "
+                f"d {float(c.distance):.2f}",
+                f"  Dragging: {self.drag_quality.describe()}",
+                f"  Last frame: {self.drag_quality.last_render_seconds * 1e3:.0f} ms",
+            ]
+        return _CONTROLS + "\n".join(status)
+
+    def _update_status_display(self) -> None:
+        """Rewrite the info panel and redraw the figure."""
+        if self.info_text is not None:
+            self.info_text.set_text(self._get_full_info_text())
+        if self.fig is not None:
+            self.fig.canvas.draw_idle()
+
+    def _create_layout(self) -> tuple:
+        """The figure and its axes: the image on the left (all rows), the
+        opacity editor over the colormap selector in the middle, the info
+        panel over the preset selector on the right. Returns (figure,
+        {"image", "opacity", "color", "preset", "info"})."""
+        fig = plt.figure(figsize=(18, 8))
+        fig.suptitle("PyVR Interactive Volume Renderer", fontsize=14, fontweight="bold")
+        gs = GridSpec(3, 3, figure=fig, width_ratios=[2.0, 1.0, 1.0], height_ratios=[3, 1, 1], hspace=0.3,
+                      wspace=0.3)
+        axes = {
+            "image": fig.add_subplot(gs[:, 0]),
+            "opacity": fig.add_subplot(gs[0, 1]),
+            "color": fig.add_subplot(gs[1:, 1]),
+            "info": fig.add_subplot(gs[0:2, 2]),
+            "preset": fig.add_subplot(gs[2, 2]),
+        }
+        return fig, axes
+
+    def _setup_info_display(self, ax) -> None:
+        ax.axis("off")
+        self.info_text = ax.text(0.02, 0.98, self._get_full_info_text(), transform=ax.transAxes, fontsize=8,
+                                 verticalalignment="top", family="monospace",
+                                 bbox=dict(boxstyle="round", facecolor="wheat", alpha=0.3))
 
     def _build_figure(self):
         """Make the figure, widgets and event connections (``show`` then
         opens the window; tests and screenshots use the figure directly)."""
-        for name in _CLEARED_KEYMAPS:
-            if f"keymap.{name}" in plt.rcParams:
-                plt.rcParams[f"keymap.{name}"] = []
-        if "keymap.quit" in plt.rcParams:
-            plt.rcParams["keymap.quit"] = [k for k in plt.rcParams["keymap.quit"] if k != "q"]
-        self.fig = plt.figure(figsize=(18, 8))
-        gs = self.fig.add_gridspec(3, 3, width_ratios=[2, 1, 1], height_ratios=[3, 1, 1])
-        self.image_display = ImageDisplay(self.fig.add_subplot(gs[:, 0]), show_fps=self.state.show_fps)
-        self.opacity_editor = OpacityEditor(self.fig.add_subplot(gs[0, 1:]), show_histogram=self.state.show_histogram)
-        self.opacity_editor.set_histogram(self.histogram_bin_edges, self.histogram_log_counts)
-        self.opacity_editor.update_plot(self.state.control_points, self.state.selected_control_point)
-        self.color_selector = ColorSelector(self.fig.add_subplot(gs[1:, 1]), on_change=self._on_colormap_change,
+        if not getattr(self, "_original_keymaps", None):  # the user's keys, not those of an earlier window
+            self._original_keymaps = {k: list(matplotlib.rcParams[f"keymap.{k}"]) for k in _CLEARED_KEYMAPS
+                                      if f"keymap.{k}" in matplotlib.rcParams}
+        for name, keys in self._original_keymaps.items():
+            matplotlib.rcParams[f"keymap.{name}"] = ["ctrl+w"] if name == "quit" and "ctrl+w" in keys else []
+        self.fig, axes = self._create_layout()
+        self.image_display = ImageDisplay(axes["image"], show_fps=self.state.show_fps)
+        self.opacity_editor = OpacityEditor(axes["opacity"], show_histogram=self.state.show_histogram)
+        self.color_selector = ColorSelector(axes["color"], on_change=self._on_colormap_change,
                                             initial_colormap=self.state.current_colormap)
-        self.preset_selector = PresetSelector(self.fig.add_subplot(gs[1, 2]),
-                                              initial_preset=self.state.current_preset_name,
+        self.preset_selector = PresetSelector(axes["preset"], initial_preset=self.state.current_preset_name,
                                               on_change=self._on_preset_change)
-        info_ax = self.fig.add_subplot(gs[2, 2])
-        info_ax.axis("off")
-        self.info_text = info_ax.text(0.0, 1.0, "", va="top", fontsize=7, family="monospace",
-                                      transform=info_ax.transAxes)
+        self.opacity_editor.set_histogram(self.histogram_bin_edges, self.histogram_log_counts)
+        self._setup_info_display(axes["info"])
         connect = self.fig.canvas.mpl_connect
-        self._cids = [
-            connect("button_press_event", self._on_mouse_press),
-            connect("button_release_event", self._on_mouse_release),
-            connect("motion_notify_event", self._on_mouse_move),
-            connect("scroll_event", self._on_scroll),
-            connect("key_press_event", self._on_key_press),
-            connect("close_event", self._on_close),
-            connect("draw_event", self._on_draw),
-        ]
-        self.fig.tight_layout()
-        self._update_display(force=True)
+        self._cids = [connect(name, handler) for name, handler in (
+            ("button_press_event", self._on_mouse_press),
+            ("button_release_event", self._on_mouse_release),
+            ("motion_notify_event", self._on_mouse_move),
+            ("scroll_event", self._on_scroll),
+            ("key_press_event", self._on_key_press),
+            ("axes_enter_event", self._update_cursor),
+            ("close_event", self._on_close),
+            ("draw_event", self._on_draw),
+        )]
+        self.state.needs_render = True
+        self._update_display(force_render=True)
         return self.fig
 
     def show(self) -> None:
@@ -308,175 +400,270 @@ class InteractiveVolumeRenderer:
 
     def update(self) -> None:
         """Redraw with the current state (e.g. after changing it from code)."""
-        self._update_display(force=True)
+        self.state.needs_tf_update = True
+        self.state.needs_render = True
+        self._update_display(force_render=True)
 
-    # -- events ------------------------------------------------------------
-    def _begin_interaction(self) -> None:
+    def _restore_matplotlib_keymaps(self) -> None:
+        """Give matplotlib back the keys the window took over."""
+        for name, keys in getattr(self, "_original_keymaps", {}).items():
+            matplotlib.rcParams[f"keymap.{name}"] = keys
+        self._original_keymaps = {}
+
+    # -- interaction quality ---------------------------------------------
+    def _switch_to_interaction_quality(self) -> None:
+        """An interaction begins: cheap frames until it ends."""
         if not self._interacting:
             self._interacting = True
-            self.drag_quality.start()
+            if self.drag_quality is not None:
+                self.drag_quality.start()
 
-    def _end_interaction(self) -> None:
-        if self._interacting:
-            self._interacting = False
-            self._update_display(force=True)
+    def _restore_quality_after_interaction(self) -> None:
+        """The interaction ended: one frame at the renderer's own quality."""
+        self._interacting = False
+        self.state.needs_render = True
+        self._update_display(force_render=True)
+
+    # -- events ------------------------------------------------------------
+    def _in(self, widget, event) -> bool:
+        return widget is not None and event.inaxes is not None and event.inaxes == widget.ax
 
     def _on_mouse_press(self, event) -> None:
         self._event_time = time.perf_counter()
-        if self.image_display is not None and event.inaxes is self.image_display.ax and event.button == 1:
-            self.state.is_dragging_camera = True
-            self.state.drag_start_pos = (event.x, event.y)
-            self._begin_interaction()
-        elif self.opacity_editor is not None and event.inaxes is self.opacity_editor.ax:
-            self._on_opacity_press(event)
+        if self._in(self.image_display, event):
+            if event.button == 1:
+                self.state.is_dragging_camera = True
+                self.state.drag_start_pos = (event.xdata, event.ydata)
+                if self.state.auto_quality_enabled:
+                    self._switch_to_interaction_quality()
+        elif self._in(self.opacity_editor, event):
+            if event.button == 1:
+                self._handle_opacity_left_click(event)
+            elif event.button == 3:
+                self._handle_opacity_right_click(event)
 
-    def _on_opacity_press(self, event) -> None:
+    def _find_control_point_near(self, x: float, y: float, threshold: float = 0.05) -> Optional[int]:
+        """Index of the control point nearest (x, y) if closer than ``threshold``."""
+        pts = np.asarray(self.state.control_points, np.float64)
+        d = np.hypot(pts[:, 0] - x, pts[:, 1] - y)
+        i = int(np.argmin(d))
+        return i if d[i] < threshold else None
+
+    def _handle_opacity_left_click(self, event) -> None:
+        """Select the point under the click, else add one there; either way
+        it can then be dragged."""
+        x, y = event.xdata, event.ydata
+        if x is None or y is None:
+            return
+        i = self._find_control_point_near(x, y)
+        if i is None:
+            i = self.state.add_control_point(float(np.clip(x, 0.0, 1.0)), float(np.clip(y, 0.0, 1.0)))
+        self.state.select_control_point(i)
+        self.state.is_dragging_control_point = True
+        self.state.drag_start_pos = (x, y)
+        if self.state.auto_quality_enabled:
+            self._switch_to_interaction_quality()
+        self._update_display(force_render=True)
+
+    def _handle_opacity_right_click(self, event) -> None:
+        """Remove the point under the click (not the end points)."""
         if event.xdata is None or event.ydata is None:
             return
-        hit = self.opacity_editor.find_point(self.state.control_points, event.xdata, event.ydata)
-        if event.button == 3:
-            if hit is not None and 0 < hit < len(self.state.control_points) - 1:
-                self.state.remove_control_point(hit)
-                self._refresh_opacity(force=True)
+        i = self._find_control_point_near(event.xdata, event.ydata)
+        if i is None:
             return
-        if event.button != 1:
-            return
-        if hit is None:
-            x = min(max(float(event.xdata), 0.0), 1.0)
-            y = min(max(float(event.ydata), 0.0), 1.0)
-            hit = self.state.add_control_point(x, y)
-        self.state.select_control_point(hit)
-        self.state.is_dragging_control_point = True
-        self._begin_interaction()
-        self._refresh_opacity(force=True)
+        try:
+            self.state.remove_control_point(i)
+        except ValueError:
+            return  # an end point
+        self._update_display(force_render=True)
 
     def _on_mouse_move(self, event) -> None:
-        if self.state.is_dragging_camera and self.state.drag_start_pos is not None:
-            self._event_time = time.perf_counter()
-            x0, y0 = self.state.drag_start_pos
-            dx, dy = event.x - x0, event.y - y0
-            if self.state.camera_control_mode == "trackball":
-                # Matplotlib's y grows upward; the trackball's downward.
-                self.camera_controller.trackball(dx, -dy, self.width, self.height)
-            else:
-                self.camera_controller.orbit(-0.005 * dx, 0.005 * dy)
-            self.state.drag_start_pos = (event.x, event.y)
-            self._update_display()
-        elif self.state.is_dragging_control_point and self.state.selected_control_point is not None:
-            if event.inaxes is not self.opacity_editor.ax or event.xdata is None:
+        if self.state.is_dragging_camera:
+            if not self._in(self.image_display, event) or event.xdata is None or self.state.drag_start_pos is None:
                 return
             self._event_time = time.perf_counter()
-            self.state.update_control_point(self.state.selected_control_point, event.xdata, event.ydata)
-            self._refresh_opacity()
+            x0, y0 = self.state.drag_start_pos
+            dx, dy = event.xdata - x0, event.ydata - y0
+            if self.state.camera_control_mode == "trackball":
+                # The image's y grows upward, the trackball's downward.
+                self.camera_controller.trackball(dx=dx, dy=-dy, viewport_width=self.width,
+                                                 viewport_height=self.height, sensitivity=1.0)
+            else:
+                self.camera_controller.orbit(delta_azimuth=-0.005 * dx, delta_elevation=0.005 * dy)
+            self.state.drag_start_pos = (event.xdata, event.ydata)
+            self.state.needs_render = True
+            self._update_display()
+        elif self.state.is_dragging_control_point:
+            i = self.state.selected_control_point
+            if i is None or not self._in(self.opacity_editor, event) or event.xdata is None:
+                return
+            self._event_time = time.perf_counter()
+            try:
+                self.state.update_control_point(i, np.clip(event.xdata, 0.0, 1.0), np.clip(event.ydata, 0.0, 1.0))
+            except (ValueError, IndexError):
+                return
+            self.opacity_editor.update_plot(self.state.control_points, self.state.selected_control_point)
+            if self._native:  # other renderers show the new function on release
+                self._refresh_image()
+                if self._cheap and self._drawn:
+                    self._blit(self.opacity_editor)
+                elif self.fig is not None:
+                    self.fig.canvas.draw_idle()
 
     def _on_mouse_release(self, event) -> None:
         self._event_time = time.perf_counter()
-        self.state.is_dragging_camera = False
-        self.state.is_dragging_control_point = False
-        self.state.drag_start_pos = None
-        self._end_interaction()
+        if self.state.is_dragging_camera or self.state.is_dragging_control_point:
+            self.state.is_dragging_camera = False
+            self.state.is_dragging_control_point = False
+            self.state.drag_start_pos = None
+            self._restore_quality_after_interaction()
 
     def _on_scroll(self, event) -> None:
-        if self.image_display is None or event.inaxes is not self.image_display.ax:
+        if not self._in(self.image_display, event):
             return
         self._event_time = time.perf_counter()
-        self.camera_controller.zoom(0.9 if event.step > 0 else 1.1)
-        self._begin_interaction()
+        if self.state.auto_quality_enabled:
+            self._switch_to_interaction_quality()
+        self.camera_controller.zoom(factor=0.9 if event.step > 0 else 1.1)
+        self.state.needs_render = True
         self._update_display()
-        self._restart_timer("_scroll_timer", 500, self._on_scroll_end)
+        self._later("scroll", 500, self._on_scroll_end)
 
     def _on_scroll_end(self) -> None:
-        if not (self.state.is_dragging_camera or self.state.is_dragging_control_point):
+        if self._interacting and not (self.state.is_dragging_camera or self.state.is_dragging_control_point):
             self._event_time = time.perf_counter()
-            self._end_interaction()
+            self._restore_quality_after_interaction()
 
-    def _refresh_opacity(self, force: bool = False) -> None:
-        self.opacity_editor.update_plot(self.state.control_points, self.state.selected_control_point)
-        self.state.needs_tf_update = True
-        self._update_display(force=force)
-        if self._cheap:
-            # The editor changed too: blit it alongside the image.
-            ax = self.opacity_editor.ax
-            if self._drawn:
-                ax.draw_artist(self.opacity_editor.line)
-                ax.draw_artist(self.opacity_editor.points)
-                ax.draw_artist(self.opacity_editor.selected)
-                self.fig.canvas.blit(ax.bbox)
+    def _update_cursor(self, event) -> None:
+        """A hand over the image, a crosshair over the opacity editor."""
+        if self.fig is None:
+            return
+        if self._in(self.image_display, event):
+            cursor = Cursors.HAND
+        elif self._in(self.opacity_editor, event):
+            cursor = Cursors.SELECT_REGION
+        else:
+            cursor = Cursors.POINTER
+        try:
+            self.fig.canvas.set_cursor(cursor)
+        except (SystemError, RuntimeError):
+            pass  # some backends cannot change the cursor; it is only a hint
 
-    def _on_colormap_change(self, name: str) -> None:
+    def _on_colormap_change(self, colormap_name: str) -> None:
         self._event_time = time.perf_counter()
-        self.state.set_colormap(name)
-        self._update_display(force=True)
+        self.state.set_colormap(colormap_name)
+        self._update_display()
 
-    def _on_preset_change(self, name: str) -> None:
+    def _on_preset_change(self, preset_name: str) -> None:
         self._event_time = time.perf_counter()
-        self.state.set_preset(name)
-        self.renderer.set_config(self._preset(name))
-        self._update_display(force=True)
+        self.state.set_preset(preset_name)
+        config = self._preset(preset_name)
+        self.renderer.set_config(config)
+        self.state.needs_render = True
+        self._update_display(force_render=True)
+        print(f"Switched to '{preset_name}' preset (~{config.estimate_samples_per_ray()} samples/ray)")
+        self._update_status_display()
 
     def _on_key_press(self, event) -> None:
-        key = event.key
         self._event_time = time.perf_counter()
-        if key == "r":
-            self.camera_controller.params = Camera.isometric_view(distance=3.0)
-            self._update_display(force=True)
-        elif key == "s":
-            self._save_current_image()
-        elif key == "f":
-            self.state.show_fps = not self.state.show_fps
+        action = {
+            "r": self._reset_view, "s": self._save_image, "f": self._toggle_fps, "h": self._toggle_histogram,
+            "l": self._toggle_light_link, "q": self._toggle_auto_quality, "t": self._toggle_control_mode,
+            "escape": self._deselect, "delete": self._delete_selected, "backspace": self._delete_selected,
+        }.get(event.key)
+        if action is not None:
+            action()
+
+    def _reset_view(self) -> None:
+        self.camera_controller.params = Camera.isometric_view(distance=3.0)
+        self.state.needs_render = True
+        self._update_display(force_render=True)
+
+    def _toggle_fps(self) -> None:
+        self.state.show_fps = not self.state.show_fps
+        if self.image_display is not None:
             self.image_display.set_fps_visible(self.state.show_fps)
-            self.fig.canvas.draw_idle()
-        elif key == "h":
-            self.state.show_histogram = not self.state.show_histogram
+        self._update_status_display()
+
+    def _toggle_histogram(self) -> None:
+        self.state.show_histogram = not self.state.show_histogram
+        if self.opacity_editor is not None:
             self.opacity_editor.set_histogram_visible(self.state.show_histogram)
-            self.fig.canvas.draw_idle()
-        elif key == "l":
-            if self.state.light_linked_to_camera:
-                self.renderer.get_light().unlink_from_camera()
-                self.state.light_linked_to_camera = False
-                self._update_display(force=True)
-            else:
-                self.set_camera_linked_lighting()
-        elif key == "q":
-            self.state.auto_quality_enabled = not self.state.auto_quality_enabled
-            self._update_info()
-            self.fig.canvas.draw_idle()
-        elif key == "t":
-            self.state.camera_control_mode = "orbit" if self.state.camera_control_mode == "trackball" else "trackball"
-            self._update_info()
-            self.fig.canvas.draw_idle()
-        elif key == "escape":
+        print(f"Histogram {'visible' if self.state.show_histogram else 'hidden'}")
+        self._update_status_display()
+
+    def _toggle_light_link(self) -> None:
+        try:
+            self._switch_light_link()
+        except Exception as e:  # the window must survive a bad light or camera
+            print(f"Error toggling light linking: {e}")
+
+    def _switch_light_link(self) -> None:
+        light = self.renderer.get_light()
+        if light.is_linked:
+            light.unlink_from_camera()
+            self.renderer.set_light(light)
+            self.state.light_linked_to_camera = False
+            print("Light unlinked from camera (fixed position)")
+            self.state.needs_render = True
+            self._update_display(force_render=True)
+            self._update_status_display()
+        else:
+            self.set_camera_linked_lighting(quiet=True)
+            print("Light linked to camera (will follow movement)")
+
+    def _toggle_auto_quality(self) -> None:
+        self.state.auto_quality_enabled = not self.state.auto_quality_enabled
+        print(f"Automatic quality adjustment {'enabled' if self.state.auto_quality_enabled else 'disabled'}")
+        self._update_status_display()
+
+    def _toggle_control_mode(self) -> None:
+        if self.state.camera_control_mode == "trackball":
+            self.state.camera_control_mode = "orbit"
+            print("Switched to orbit control (azimuth/elevation)")
+        else:
+            self.state.camera_control_mode = "trackball"
+            print("Switched to trackball control (arcball)")
+        self._update_status_display()
+
+    def _deselect(self) -> None:
+        if self.state.selected_control_point is not None:
             self.state.select_control_point(None)
-            self.opacity_editor.update_plot(self.state.control_points, None)
-            self.fig.canvas.draw_idle()
-        elif key in ("delete", "backspace"):
-            i = self.state.selected_control_point
-            if i is not None and 0 < i < len(self.state.control_points) - 1:
-                self.state.remove_control_point(i)
-                self._refresh_opacity(force=True)
+            self._update_display()
+
+    def _delete_selected(self) -> None:
+        i = self.state.selected_control_point
+        if i is None:
+            return
+        try:
+            self.state.remove_control_point(i)
+        except ValueError:
+            return  # an end point
+        self._update_display(force_render=True)
 
     def _on_draw(self, event) -> None:
         # Blitting draws over the last full drawing, so there must be one.
         self._drawn = True
 
     def _on_close(self, event) -> None:
-        for timer in (self._scroll_timer, self._pending_timer):
-            if timer is not None:
-                timer.stop()
+        for timer in self._timers.values():
+            timer.stop()
+        self._restore_matplotlib_keymaps()
 
     # -- public actions ----------------------------------------------------
-    def _save_current_image(self, filename: Optional[str] = None) -> str:
+    def _save_image(self, filename: Optional[str] = None) -> Optional[str]:
+        """Save the frame shown as a PNG (``pyvr_render_<time>.png``)."""
+        if self._cached_image is None:
+            print("No rendered image to save")
+            return None
         from PIL import Image
 
         if filename is None:
             filename = f"pyvr_render_{datetime.now():%Y%m%d_%H%M%S}.png"
-        img = self._cached_image if self._cached_image is not None else self._render_volume()
-        Image.fromarray(img).save(filename)
-        print(f"Saved {filename}")
+        Image.fromarray(self._cached_image).save(filename)
+        print(f"Saved rendering to {filename}")
         return filename
-
-    def _preset(self, name: str) -> RenderConfig:
-        return _crossing(getattr(RenderConfig, name)(), self.volume)
 
     def set_high_quality_mode(self) -> None:
         """Switch to the high_quality preset."""
@@ -484,26 +671,44 @@ class InteractiveVolumeRenderer:
         self.renderer.set_config(self._preset("high_quality"))
         if self.preset_selector is not None:
             self.preset_selector.set_preset("high_quality", notify=False)
-        self._update_display(force=True)
+        self.state.needs_render = True
+        self._update_display(force_render=True)
+        self._update_status_display()
+        print("Switched to high quality mode")
 
-    def set_camera_linked_lighting(self, azimuth_offset: float = 0.0, elevation_offset: float = 0.0) -> None:
+    def set_camera_linked_lighting(self, azimuth_offset: float = 0.0, elevation_offset: float = 0.0, *,
+                                   quiet: bool = False) -> None:
         """Make the light follow the camera, turned by these offsets (radians)."""
         light = self.renderer.get_light()
         light.link_to_camera(azimuth_offset=azimuth_offset, elevation_offset=elevation_offset)
+        light.update_from_camera(self.camera_controller.params)
         self.renderer.set_light(light)
         self.state.light_linked_to_camera = True
-        self._update_display(force=True)
+        self.state.needs_render = True
+        self._update_display(force_render=True)
+        self._update_status_display()
+        if not quiet:
+            print(f"Light linked to camera (az_offset={azimuth_offset:.2f}, el_offset={elevation_offset:.2f})")
 
     def capture_high_quality_image(self, filename: Optional[str] = None) -> str:
         """Render the current view with the ultra_quality preset (rays long
-        enough to cross the volume) and save it as a PNG; returns the name."""
+        enough to cross the volume) and save it as a PNG; returns the name.
+        The preset in use does not change."""
         from PIL import Image
 
         if filename is None:
             filename = f"pyvr_hq_render_{datetime.now():%Y%m%d_%H%M%S}.png"
         cfg = self._preset("ultra_quality")
         self.renderer.set_camera(self.camera_controller.params)
-        img = self.renderer.render(origin="upper", config=cfg)
+        if self._native:
+            img = self.renderer.render(origin="upper", config=cfg)
+        else:
+            previous = self.renderer.get_config()
+            self.renderer.set_config(cfg)
+            try:
+                img = np.array(self.renderer.render_to_pil())
+            finally:
+                self.renderer.set_config(previous)
         Image.fromarray(img).save(filename)
-        print(f"Saved {filename}")
+        print(f"High quality image saved to {filename}")
         return filename

@@ -60,7 +60,7 @@ class InterfaceState:
         if index in (0, n - 1, -1, -n):
             raise ValueError("Cannot remove first or last control point")
         if not -n <= index < n:
-            raise IndexError(f"control point index {index} out of range for {n} points")
+            raise IndexError(f"Control point index {index} out of range for {n} points")
         del self.control_points[index]
         if self.selected_control_point is not None:
             if self.selected_control_point == index:
@@ -75,7 +75,7 @@ class InterfaceState:
         clamped to [0, 1] and re-sorted, the selection following the point."""
         n = len(self.control_points)
         if not -n <= index < n:
-            raise IndexError(f"control point index {index} out of range for {n} points")
+            raise IndexError(f"Control point index {index} out of range for {n} points")
         index %= n
         opacity = min(max(float(opacity), 0.0), 1.0)
         if index == 0:
@@ -96,16 +96,16 @@ class InterfaceState:
 
     def select_control_point(self, index: Optional[int]) -> None:
         if index is not None and not 0 <= index < len(self.control_points):
-            raise IndexError(f"control point index {index} out of range for {len(self.control_points)} points")
+            raise IndexError(f"Control point index {index} out of range for {len(self.control_points)} points")
         self.selected_control_point = index
 
-    def set_colormap(self, name: str) -> None:
-        self.current_colormap = name
+    def set_colormap(self, colormap_name: str) -> None:
+        self.current_colormap = colormap_name
         self.needs_tf_update = True
         self.needs_render = True
 
-    def set_preset(self, name: str) -> None:
-        if name not in PRESETS:
-            raise ValueError(f"Invalid preset '{name}'. Choose from: {PRESETS}")
-        self.current_preset_name = name
+    def set_preset(self, preset_name: str) -> None:
+        if preset_name not in PRESETS:
+            raise ValueError(f"Invalid preset '{preset_name}'. Choose from: {PRESETS}")
+        self.current_preset_name = preset_name
         self.needs_render = True
