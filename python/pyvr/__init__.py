@@ -13,6 +13,17 @@ from .renderer import VolumeRenderer
 
 __version__ = "0.5.0"
 
+
+def __getattr__(name):
+    # pyvr 0.4.1 imported its interface with the package; it needs
+    # matplotlib, so here it is imported on first use of ``pyvr.interface``.
+    if name == "interface":
+        import importlib
+
+        return importlib.import_module(".interface", __name__)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
 __all__ = [
     "camera",
     "dataloaders",

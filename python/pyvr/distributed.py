@@ -211,6 +211,15 @@ def _as_dask(data, chunks):
     return da.from_array(data, chunks=chunks)
 
 
+def _check_renderer(renderer) -> None:
+    """The cluster path reads the renderer's tables and state, which only
+    pyvr's own renderer has."""
+    from .renderer import VolumeRenderer
+
+    if not isinstance(renderer, VolumeRenderer):
+        raise TypeError(f"Expected VolumeRenderer instance (pyvr.VolumeRenderer or a subclass), got {type(renderer)}")
+
+
 def render(renderer, volume, client=None, *, dtype=np.uint8, premultiplied: bool = False) -> np.ndarray:
     """Renders ``volume`` with ``renderer``'s camera, light, transfer
     functions and config on a dask.distributed cluster (``client``, or the
@@ -221,6 +230,7 @@ def render(renderer, volume, client=None, *, dtype=np.uint8, premultiplied: bool
     from . import bricks
     from .volume import Volume
 
+    _check_renderer(renderer)
     client = _client(client)
     if not isinstance(volume, Volume):
         volume = bricks.as_volume(volume)
@@ -298,6 +308,7 @@ def render_path(renderer, path, n_frames: Optional[int] = None, client=None, *, 
     default; origin, background and dtype as there)."""
     from .renderer import _path_cameras, check_frame_options
 
+    _check_renderer(renderer)
     client = _client(client)
     if renderer.volume is None:
         raise RuntimeError("no volume loaded: call load_volume() before render_path()")

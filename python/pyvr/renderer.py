@@ -26,6 +26,7 @@ from .camera import Camera, CameraPath
 from .config import RenderConfig
 from .lighting import Light
 from .transferfunctions import ColorTransferFunction, OpacityTransferFunction
+from .transferfunctions.base import BaseTransferFunction
 from .transferfunctions.value_range import check_value_range, sample_map
 from .volume import Volume
 
@@ -714,8 +715,10 @@ class VolumeRenderer:
         ``value_range`` (they must agree), else the volume's, else pyvr's
         rule ([0, 1] for float data, the type's range for uint8/uint16).
         """
+        # Only pyvr's own functions carry a value range; any other object is
+        # taken by pyvr 0.4.1's protocol (lut_size and to_lut) alone.
         ranges = {tf.value_range for tf in (color_transfer_function, opacity_transfer_function)
-                  if getattr(tf, "value_range", None) is not None}
+                  if isinstance(tf, BaseTransferFunction) and tf.value_range is not None}
         if value_range is not None:
             value_range = check_value_range(value_range)
         elif len(ranges) > 1:
@@ -1255,6 +1258,17 @@ class VolumeRenderer:
     def __repr__(self) -> str:
         vol = "no volume" if self.volume is None else f"volume {self.volume.shape}"
         return f"VolumeRenderer({self.width}x{self.height}, {vol}, device={self.device!r})"
+
+    @property
+    def gl_manager(self):
+        """pyvr 0.4.1's OpenGL manager; kept for compatibility only: a
+        stand-in whose ``cleanup()`` is accepted (see
+        ``pyvr.moderngl_renderer.gl_manager``)."""
+        if self.__dict__.get("_gl_manager") is None:
+            from .moderngl_renderer.gl_manager import GLManagerStandIn
+
+            self._gl_manager = GLManagerStandIn(self.width, self.height)
+        return self._gl_manager
 
     def render_to_pil(self, data=None):
         """The frame as a PIL RGBA image, top row at the top."""

@@ -6,7 +6,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from .._numbers import check_count, is_number, is_vec3
-from .camera import Camera, validate_camera_angles
+from .camera import Camera, CameraError, validate_camera_angles
 
 
 def _map_to_sphere(x: float, y: float, radius: float = 1.0) -> np.ndarray:
@@ -227,6 +227,8 @@ class CameraPath:
         )
 
     def generate_frames(self, n_frames: int) -> List[Camera]:
+        if is_number(n_frames) and not isinstance(n_frames, bool) and n_frames < 1:
+            raise ValueError("n_frames must be at least 1")  # pyvr 0.4.1's message
         return self.cameras(n_frames)
 
 
