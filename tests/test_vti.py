@@ -70,7 +70,7 @@ def test_appended_zlib_base64(tmp_path, block):
 def test_errors(tmp_path):
     p = tmp_path / "d.vti"
     p.write_bytes(xml('<DataArray type="Float32" Name="f" NumberOfComponents="3" format="ascii">0</DataArray>'))
-    with pytest.raises(ValueError, match="not scalar"):
+    with pytest.raises(ValueError, match="Multi-component scalars not supported. Array .f. has 3 components, expected 1"):
         load_vti(str(p))
     p.write_bytes(xml('<DataArray type="Float32" Name="f" format="ascii">1 2 3</DataArray>'))
     with pytest.raises(ValueError, match="values for extent"):

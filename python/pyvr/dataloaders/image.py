@@ -13,12 +13,20 @@ from ..volume import Volume
 
 class FileFormatError(ValueError):
     """A file that cannot be read as the format it claims: truncated, sizes
-    that disagree, absurd dimensions, unknown types. Names the file."""
+    that disagree, absurd dimensions, unknown types. Names the file.
+    ``available_arrays``: when the array asked for is not in the file, the
+    names of those that are (else None)."""
+
+    available_arrays = None
 
 
 class Malformed(Exception):
     """Raised inside a reader for a malformed part of a file; ``names_file``
     turns it into a FileFormatError that names the file."""
+
+    def __init__(self, message: str, *, available_arrays=None):
+        super().__init__(message)
+        self.available_arrays = available_arrays
 
 
 @contextmanager
@@ -26,7 +34,9 @@ def names_file(path):
     try:
         yield
     except Malformed as e:
-        raise FileFormatError(f"{path}: {e}") from None
+        err = FileFormatError(f"{path}: {e}")
+        err.available_arrays = e.available_arrays
+        raise err from None
 
 
 def choose_key(path, keys, key, what="arrays"):
@@ -88,7 +98,7 @@ def check_shape(path, shape, dtype) -> Tuple[int, int, int]:
     if len(dims) != 3:
         raise FileFormatError(f"{path}: a volume needs 3 dimensions, the file has {len(dims)}: {dims}")
     if any(d < 1 for d in dims):
-        raise FileFormatError(f"{path}: dimensions must be positive, got {dims}")
+        raise FileFormatError(f"{path}: Invalid dimensions: {dims} (each must be positive)")
     nbytes = int(np.prod(dims, dtype=object)) * np.dtype(dtype).itemsize
     if nbytes > memory_limit():
         raise FileFormatError(

@@ -181,10 +181,10 @@ def _read(path: str, array: Optional[str]) -> GridImage:
     if chosen is None and array is None and arrays:
         chosen = arrays[0]
     if chosen is None:
-        raise Malformed(f"no point array named {name!r}; available arrays: {names}")
+        raise Malformed(f"no point array named {name!r}; available arrays: {names}", available_arrays=names)
     if chosen.get("NumberOfComponents", "1") != "1":
-        raise Malformed(f"array {chosen.get('Name')!r} is not scalar ({chosen.get('NumberOfComponents')} components); "
-                   "only scalar arrays can be rendered")
+        raise Malformed(f"Multi-component scalars not supported. Array '{chosen.get('Name')}' has "
+                        f"{chosen.get('NumberOfComponents')} components, expected 1.")
     vtype = chosen.get("type")
     if vtype not in _TYPES:
         raise Malformed(f"array type {vtype!r} is not one of {sorted(_TYPES)}")

@@ -30,8 +30,9 @@ def load_vtk_volume(file_path, scalars_name: str = "Scalars_") -> Volume:
     try:
         image = reader(path, array=scalars_name)
     except FileFormatError as e:
-        if "no point" in str(e):
-            raise ValueError(f"Scalar array '{scalars_name}' not found in {path}. {str(e).split(';', 1)[-1].strip()}") from None
+        if e.available_arrays is not None:  # pyvr 0.4.1's message
+            raise ValueError(f"Scalar array '{scalars_name}' not found in {file_path}. "
+                             f"Available arrays: {e.available_arrays}") from None
         raise
     spacing = image.spacing
     if np.any(spacing <= 0):
