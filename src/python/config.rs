@@ -249,7 +249,12 @@ render_config_methods! {
         preset(cls, Preset::UltraQuality)
     }
     #[classmethod]
-    #[pyo3(signature = (step_size, max_steps, early_ray_termination=None, opacity_threshold=None))]
+    // None (also accepted) means the same defaults; the text signature shows
+    // them as pyvr 0.4.1 did.
+    #[pyo3(
+        signature = (step_size, max_steps, early_ray_termination=None, opacity_threshold=None),
+        text_signature = "(step_size, max_steps, early_ray_termination=True, opacity_threshold=0.95)"
+    )]
     fn custom(
         cls: &Bound<'_, PyType>,
         step_size: &Bound<'_, PyAny>,
