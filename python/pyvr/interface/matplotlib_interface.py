@@ -344,7 +344,7 @@ class InteractiveVolumeRenderer:
         {"image", "opacity", "color", "preset", "info"})."""
         fig = plt.figure(figsize=(18, 8))
         fig.suptitle("PyVR Interactive Volume Renderer", fontsize=14, fontweight="bold")
-        gs = GridSpec(3, 3, figure=fig, width_ratios=[2.0, 1.0, 1.0], height_ratios=[3, 1, 1], hspace=0.3,
+        gs = GridSpec(3, 3, figure=fig, width_ratios=[2.0, 1.0, 1.0], height_ratios=[3, 1, 1], hspace=0.45,
                       wspace=0.3)
         axes = {
             "image": fig.add_subplot(gs[:, 0]),

@@ -266,8 +266,9 @@ class ColorSelector(_Choice):
         return f"Colormap '{name}' not available. Choose from: {self.AVAILABLE_COLORMAPS}"
 
     def _create_colormap_preview(self) -> None:
+        # Below the buttons, so it hides none of them.
         pos = self.ax.get_position()
-        self.preview_ax = self.ax.figure.add_axes([pos.x0, pos.y1 - 0.04, pos.width, 0.025])
+        self.preview_ax = self.ax.figure.add_axes([pos.x0, pos.y0 - 0.035, pos.width, 0.025])
         self.preview_ax.axis("off")
         gradient = np.linspace(0.0, 1.0, 256).reshape(1, -1)
         self.colormap_preview = self.preview_ax.imshow(gradient, aspect="auto", cmap=self.current_colormap,
