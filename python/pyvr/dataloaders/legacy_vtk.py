@@ -167,7 +167,7 @@ def _read(path: str, array: Optional[str]) -> GridImage:
         raise Malformed("no DIMENSIONS")
     if found is None:
         raise Malformed(f"no point scalars named {array!r}; arrays: {seen}" if array else "no point scalars",
-                        available_arrays=list(seen))
+                        available_arrays=list(seen) if array else None)
     name, values, shape = found
     # x fastest in the file: a transposed view (Fortran order), converted
     # to native byte order in the one copy the file's buffer needs anyway.
