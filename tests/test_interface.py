@@ -6,9 +6,13 @@ import matplotlib
 
 matplotlib.use("Agg")
 
+from unittest.mock import MagicMock
+
 import numpy as np
 import pytest
 from matplotlib.backend_bases import KeyEvent, MouseEvent
+
+from pyvr import VolumeRenderer
 
 from pyvr.datasets import compute_normal_volume, create_sample_volume
 from pyvr.interface import ColorSelector, ImageDisplay, InteractiveVolumeRenderer, InterfaceState, OpacityEditor
@@ -331,6 +335,100 @@ def test_render_error_gives_pyvrs_placeholder_and_a_warning(ui, monkeypatch):
     with pytest.warns(RuntimeWarning, match="Rendering error: device lost"):
         img = ui._render_volume()
     assert img.shape == (SIZE, SIZE, 3) and img.max() == 0
+
+
+# -- a renderer with pyvr 0.4.1's API only ---------------------------------
+# The window drives any renderer through pyvr 0.4.1's API (a user's wrapper,
+# pyvr 0.4.1's own class, a test stand-in); pyvr's renderer adds cheap drag
+# frames, refinement and the value-range histogram.
+
+
+class OldAPIRenderer:
+    """A renderer with pyvr 0.4.1's methods and nothing more, as a user's
+    wrapper would be; it draws with pyvr's renderer inside and counts the
+    calls the interface makes."""
+
+    def __init__(self, width=512, height=512, config=None, light=None):
+        self._inner = VolumeRenderer(width, height, config=config, light=light)
+        self.width, self.height = width, height
+        self.calls = []
+
+    def __getattr__(self, name):
+        if name in ("load_volume", "set_camera", "set_light", "get_light", "set_config", "get_config",
+                    "set_transfer_functions", "get_volume", "get_camera", "render", "render_to_pil"):
+            self.calls.append(name)
+            return getattr(self._inner, name)
+        raise AttributeError(f"pyvr 0.4.1's renderer has no {name!r}")
+
+
+@pytest.fixture
+def old_ui(volume, tmp_path, monkeypatch):
+    monkeypatch.setattr(cache, "CACHE_DIR", tmp_path / "cache")
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(matplotlib_interface, "VolumeRenderer", OldAPIRenderer)
+    ui = InteractiveVolumeRenderer(volume, width=SIZE, height=SIZE)
+    ui._min_render_interval = 0.0
+    ui._build_figure()
+    ui.fig.canvas.draw()
+    yield ui
+    matplotlib.pyplot.close(ui.fig)
+
+
+def test_the_window_runs_on_a_renderer_with_only_pyvr_041s_api(old_ui, capsys):
+    ui = old_ui
+    assert not ui._native and ui.drag_quality is None and ui.refinement is None
+    # Frames come from render_to_pil at the renderer's own config: the pixels pyvr's renderer gives.
+    shown = np.array(ui.image_display.image.get_array())
+    np.testing.assert_array_equal(shown, np.array(ui.renderer._inner.render_to_pil()))
+    assert "render_to_pil" in ui.renderer.calls
+    # A drag turns the camera and shows full-size frames (no cheap frames without pyvr's renderer).
+    az0 = ui.camera_controller.params.azimuth
+    ax = ui.image_display.ax
+    mouse(ui, "button_press_event", ax, 0.5, 0.5)
+    mouse(ui, "motion_notify_event", ax, 0.7, 0.5)
+    assert np.array(ui.image_display.image.get_array()).shape[:2] == (SIZE, SIZE)
+    mouse(ui, "button_release_event", ax, 0.7, 0.5)
+    assert ui.camera_controller.params.azimuth < az0 - 0.05
+    after = np.array(ui.image_display.image.get_array())
+    assert np.abs(after.astype(int) - shown.astype(int)).max() > 20
+    # Scroll, an opacity point, a preset and the keys work too.
+    d0 = ui.camera_controller.params.distance
+    mouse(ui, "scroll_event", ax, 0.5, 0.5, step=1)
+    assert ui.camera_controller.params.distance == pytest.approx(0.9 * d0)
+    fx, fy = ui.opacity_editor.ax.transAxes.inverted().transform(
+        ui.opacity_editor.ax.transData.transform((0.5, 0.8)))
+    mouse(ui, "button_press_event", ui.opacity_editor.ax, fx, fy)
+    mouse(ui, "button_release_event", ui.opacity_editor.ax, fx, fy)
+    assert len(ui.state.control_points) == 3
+    ui._on_preset_change("balanced")
+    assert ui.renderer.get_config().step_size == 0.01
+    assert "Switched to 'balanced' preset" in capsys.readouterr().out
+    key(ui, "l")
+    assert ui.renderer.get_light().is_linked and ui.state.light_linked_to_camera
+    # The histogram spans pyvr 0.4.1's [0, 1] (the wrapper has no value_range).
+    assert ui.histogram_bin_edges[0] == 0.0 and ui.histogram_bin_edges[-1] == 1.0
+
+
+def test_high_quality_capture_on_such_a_renderer_restores_its_config(old_ui, tmp_path):
+    before = old_ui.renderer.get_config()
+    name = old_ui.capture_high_quality_image(str(tmp_path / "hq.png"))
+    from PIL import Image
+
+    assert np.array(Image.open(name)).shape == (SIZE, SIZE, 4)
+    assert old_ui.renderer.get_config() is before
+
+
+def test_the_window_survives_a_stand_in_renderer(volume, tmp_path, monkeypatch):
+    monkeypatch.setattr(cache, "CACHE_DIR", tmp_path)
+    stand_in = MagicMock()
+    stand_in.render_to_pil.return_value = np.full((SIZE, SIZE, 3), 7, np.uint8)
+    monkeypatch.setattr(matplotlib_interface, "VolumeRenderer", MagicMock(return_value=stand_in))
+    ui = InteractiveVolumeRenderer(volume, width=SIZE, height=SIZE)
+    img = ui._render_volume()
+    assert img.shape == (SIZE, SIZE, 3) and img.max() == 7
+    stand_in.set_transfer_functions.assert_called_once()
+    ui._on_preset_change("preview")
+    stand_in.set_config.assert_called_once()
 
 
 def test_histogram_cache_lives_in_its_folder(volume, tmp_path, monkeypatch):

@@ -1,43 +1,15 @@
-"""What uses a renderer needs only pyvr 0.4.1's renderer API, or says
-clearly that it needs pyvr's own: the interface runs on a renderer that
-has nothing else (a wrapper, a stand-in, pyvr 0.4.1's class), and the
-newer consumers reject one with a TypeError naming what they need."""
+"""pyvr 0.4.1's renderer API as code written for it uses it: transfer
+functions by its protocol, ``gl_manager.cleanup()``, its messages raised
+for real; and the consumers that need pyvr's own renderer say so. (The
+window on a renderer with pyvr 0.4.1's API only is tested in
+tests/test_interface.py.)"""
 
-import matplotlib
+import numpy as np
+import pytest
 
-matplotlib.use("Agg")
-
-from unittest.mock import MagicMock  # noqa: E402
-
-import numpy as np  # noqa: E402
-import pytest  # noqa: E402
-from matplotlib.backend_bases import KeyEvent, MouseEvent  # noqa: E402
-
-from pyvr import VolumeRenderer  # noqa: E402
-from pyvr.config import RenderConfig  # noqa: E402
-from pyvr.datasets import compute_normal_volume, create_sample_volume  # noqa: E402
-from pyvr.interface import cache, matplotlib_interface  # noqa: E402
-from pyvr.volume import Volume  # noqa: E402
-
-SIZE = 48
-
-
-class OldAPIRenderer:
-    """A renderer with pyvr 0.4.1's methods and nothing more, as a user's
-    wrapper would be; it draws with pyvr's renderer inside and counts the
-    calls the interface makes."""
-
-    def __init__(self, width=512, height=512, config=None, light=None):
-        self._inner = VolumeRenderer(width, height, config=config, light=light)
-        self.width, self.height = width, height
-        self.calls = []
-
-    def __getattr__(self, name):
-        if name in ("load_volume", "set_camera", "set_light", "get_light", "set_config", "get_config",
-                    "set_transfer_functions", "get_volume", "get_camera", "render", "render_to_pil"):
-            self.calls.append(name)
-            return getattr(self._inner, name)
-        raise AttributeError(f"pyvr 0.4.1's renderer has no {name!r}")
+from pyvr import VolumeRenderer
+from pyvr.datasets import compute_normal_volume, create_sample_volume
+from pyvr.volume import Volume
 
 
 @pytest.fixture
@@ -46,90 +18,10 @@ def volume():
     return Volume(d, compute_normal_volume(d), min_bounds=np.array([-1.0, -1, -1]), max_bounds=np.array([1.0, 1, 1]))
 
 
-@pytest.fixture
-def old_ui(volume, tmp_path, monkeypatch):
-    monkeypatch.setattr(cache, "CACHE_DIR", tmp_path / "cache")
-    monkeypatch.chdir(tmp_path)
-    monkeypatch.setattr(matplotlib_interface, "VolumeRenderer", OldAPIRenderer)
-    ui = matplotlib_interface.InteractiveVolumeRenderer(volume, width=SIZE, height=SIZE)
-    ui._min_render_interval = 0.0
-    ui._build_figure()
-    ui.fig.canvas.draw()
-    yield ui
-    matplotlib.pyplot.close(ui.fig)
-
-
-def _event(ui, name, ax, fx, fy, button=1, step=0):
-    x, y = ax.transAxes.transform((fx, fy))
-    c = ui.fig.canvas
-    if name == "scroll_event":
-        ev = MouseEvent(name, c, x, y, button="up" if step > 0 else "down", step=step)
-    else:
-        ev = MouseEvent(name, c, x, y, button=button)
-    c.callbacks.process(name, ev)
-
-
-def test_the_window_runs_on_a_renderer_with_only_pyvr_041s_api(old_ui, capsys):
-    ui = old_ui
-    assert not ui._native and ui.drag_quality is None and ui.refinement is None
-    # Frames come from render_to_pil at the renderer's own config: the pixels pyvr's renderer gives.
-    shown = np.array(ui.image_display.image.get_array())
-    np.testing.assert_array_equal(shown, np.array(ui.renderer._inner.render_to_pil()))
-    assert "render_to_pil" in ui.renderer.calls
-    # A drag turns the camera and shows full-size frames (no cheap frames without pyvr's renderer).
-    az0 = ui.camera_controller.params.azimuth
-    ax = ui.image_display.ax
-    _event(ui, "button_press_event", ax, 0.5, 0.5)
-    _event(ui, "motion_notify_event", ax, 0.7, 0.5)
-    assert np.array(ui.image_display.image.get_array()).shape[:2] == (SIZE, SIZE)
-    _event(ui, "button_release_event", ax, 0.7, 0.5)
-    assert ui.camera_controller.params.azimuth < az0 - 0.05
-    after = np.array(ui.image_display.image.get_array())
-    assert np.abs(after.astype(int) - shown.astype(int)).max() > 20
-    # Scroll, an opacity point, a preset and the keys work too.
-    d0 = ui.camera_controller.params.distance
-    _event(ui, "scroll_event", ax, 0.5, 0.5, step=1)
-    assert ui.camera_controller.params.distance == pytest.approx(0.9 * d0)
-    fx, fy = ui.opacity_editor.ax.transAxes.inverted().transform(
-        ui.opacity_editor.ax.transData.transform((0.5, 0.8)))
-    _event(ui, "button_press_event", ui.opacity_editor.ax, fx, fy)
-    _event(ui, "button_release_event", ui.opacity_editor.ax, fx, fy)
-    assert len(ui.state.control_points) == 3
-    ui._on_preset_change("balanced")
-    assert ui.renderer.get_config().step_size == RenderConfig.balanced().step_size
-    assert "Switched to 'balanced' preset" in capsys.readouterr().out
-    ui.fig.canvas.callbacks.process("key_press_event", KeyEvent("key_press_event", ui.fig.canvas, "l"))
-    assert ui.renderer.get_light().is_linked and ui.state.light_linked_to_camera
-    # The histogram spans pyvr 0.4.1's [0, 1] (the wrapper has no value_range).
-    assert ui.histogram_bin_edges[0] == 0.0 and ui.histogram_bin_edges[-1] == 1.0
-
-
-def test_high_quality_capture_on_such_a_renderer_restores_its_config(old_ui, tmp_path):
-    before = old_ui.renderer.get_config()
-    name = old_ui.capture_high_quality_image(str(tmp_path / "hq.png"))
-    from PIL import Image
-
-    assert np.array(Image.open(name)).shape == (SIZE, SIZE, 4)
-    assert old_ui.renderer.get_config() is before
-
-
-def test_the_window_survives_a_stand_in_renderer(volume, tmp_path, monkeypatch):
-    monkeypatch.setattr(cache, "CACHE_DIR", tmp_path)
-    stand_in = MagicMock()
-    stand_in.render_to_pil.return_value = np.full((SIZE, SIZE, 3), 7, np.uint8)
-    monkeypatch.setattr(matplotlib_interface, "VolumeRenderer", MagicMock(return_value=stand_in))
-    ui = matplotlib_interface.InteractiveVolumeRenderer(volume, width=SIZE, height=SIZE)
-    img = ui._render_volume()
-    assert img.shape == (SIZE, SIZE, 3) and img.max() == 7
-    stand_in.set_transfer_functions.assert_called_once()
-    ui._on_preset_change("preview")
-    stand_in.set_config.assert_called_once()
-
-
 def test_newer_consumers_name_the_renderer_they_need(volume):
     from pyvr import distributed
 
-    wrapper = OldAPIRenderer(8, 8)
+    wrapper = object()  # e.g. a wrapper with pyvr 0.4.1's methods only
     with pytest.raises(TypeError, match="Expected VolumeRenderer instance"):
         distributed.render(wrapper, volume)
     with pytest.raises(TypeError, match="Expected VolumeRenderer instance"):

@@ -14,6 +14,7 @@ a listed one that no longer exists."""
 import ast
 import builtins
 import importlib
+import importlib.util
 import inspect
 import json
 import re
@@ -24,6 +25,10 @@ import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
+# The tool that made the record; its reading of message literals is reused on pyvr's own source.
+_spec = importlib.util.spec_from_file_location("pyvr041_surface", ROOT / "tools" / "pyvr041_surface.py")
+SURVEY = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(SURVEY)
 SURFACE = json.loads((Path(__file__).parent / "pyvr041_surface.json").read_text())
 MIGRATION = ROOT / "docs" / "migration.toml"
 # Message fragments shorter than this ("got ", ", ") say nothing on their own.
@@ -232,26 +237,6 @@ def class_differences() -> list:
     return found
 
 
-def _parts(node) -> list:
-    """The literal parts of a string expression, split where values go in."""
-    if isinstance(node, ast.Constant) and isinstance(node.value, str):
-        return [node.value]
-    if isinstance(node, ast.JoinedStr):
-        parts, current = [], ""
-        for v in node.values:
-            if isinstance(v, ast.Constant):
-                current += v.value
-            else:
-                parts.append(current)
-                current = ""
-        return parts + [current]
-    if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Add):
-        left, right = _parts(node.left), _parts(node.right)
-        if left and right:
-            return left[:-1] + [left[-1] + right[0]] + right[1:]
-    return []
-
-
 def _our_messages():
     """Every string pyvr's source can make, as (literal parts, exception
     classes raised with it): Python literals, f-strings and their
@@ -265,7 +250,7 @@ def _our_messages():
                 raised[id(node.exc.args[0])] = ast.unparse(node.exc.func)
         for node in ast.walk(tree):
             if isinstance(node, (ast.Constant, ast.JoinedStr, ast.BinOp)):
-                parts = _parts(node)
+                parts = SURVEY.literal_parts(node)
                 if parts:
                     messages.append((parts, raised.get(id(node))))
     for path in (ROOT / "src").rglob("*.rs"):

@@ -469,7 +469,11 @@ class InteractiveVolumeRenderer:
         """Remove the point under the click (not the end points)."""
         if event.xdata is None or event.ydata is None:
             return
-        i = self._find_control_point_near(event.xdata, event.ydata)
+        self._remove_point(self._find_control_point_near(event.xdata, event.ydata))
+
+    def _remove_point(self, i: Optional[int]) -> None:
+        """Remove control point ``i`` and show the result; nothing for None
+        or an end point."""
         if i is None:
             return
         try:
@@ -633,14 +637,7 @@ class InteractiveVolumeRenderer:
             self._update_display()
 
     def _delete_selected(self) -> None:
-        i = self.state.selected_control_point
-        if i is None:
-            return
-        try:
-            self.state.remove_control_point(i)
-        except ValueError:
-            return  # an end point
-        self._update_display(force_render=True)
+        self._remove_point(self.state.selected_control_point)
 
     def _on_draw(self, event) -> None:
         # Blitting draws over the last full drawing, so there must be one.
