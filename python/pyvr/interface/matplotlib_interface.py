@@ -11,8 +11,6 @@ renderer has: cheap frames while dragging, refinement of a still view, and
 the histogram in the transfer function's value range.
 """
 
-import time
-import warnings
 from collections import deque
 from datetime import datetime
 from typing import Optional
@@ -20,7 +18,6 @@ from typing import Optional
 import matplotlib
 import matplotlib.pyplot as plt
 import numpy as np
-from matplotlib.backend_tools import Cursors
 from matplotlib.gridspec import GridSpec
 
 from .. import renderer as _engine
@@ -36,6 +33,8 @@ from ..transferfunctions.value_range import storage_unit
 from ..volume import Volume
 from . import cache
 from .state import PRESETS, InterfaceState
+from .events import EventHandlers
+from .frames import FramePipeline
 from .widgets import ColorSelector, ImageDisplay, OpacityEditor, PresetSelector
 
 # Matplotlib's default keys that would fight the interface's own. "quit"
@@ -69,7 +68,7 @@ def _on_off(flag) -> str:
     return "ON" if flag else "OFF"
 
 
-class InteractiveVolumeRenderer:
+class InteractiveVolumeRenderer(FramePipeline, EventHandlers):
     """A matplotlib window to explore a Volume.
 
     >>> InteractiveVolumeRenderer(volume).show()
@@ -159,150 +158,6 @@ class InteractiveVolumeRenderer:
         self.histogram_bin_edges, self.histogram_log_counts = cache.get_or_compute_histogram(
             self.volume.data, 256, self._tf_data_range())
         print("Histogram loaded.")
-
-    @property
-    def _cheap(self) -> bool:
-        return self._native and self._interacting and self.state.auto_quality_enabled
-
-    def _render_volume(self) -> np.ndarray:
-        """The frame for the controller's camera, top row first (smaller
-        while interacting); the cached frame while nothing changed. On a
-        rendering error it warns and returns pyvr's placeholder, a black
-        (height, width, 3) frame."""
-        if not self.state.needs_render and self._cached_image is not None:
-            return self._cached_image
-        try:
-            self.renderer.set_camera(self.camera_controller.params)
-            if self._cheap:
-                img = self.drag_quality.render_drag(origin="upper")
-            elif self._native:
-                img = self.drag_quality.render_full(origin="upper")
-            else:
-                img = np.array(self.renderer.render_to_pil())
-        except Exception as e:  # the window must survive any one bad frame
-            warnings.warn(f"Rendering error: {e}", RuntimeWarning, stacklevel=2)
-            return np.zeros((self.height, self.width, 3), np.uint8)
-        self._cached_image = img
-        return img
-
-    # -- display -----------------------------------------------------------
-    def _should_render(self) -> bool:
-        """Whether the throttle lets a frame through now (and, if so, starts
-        the next interval)."""
-        now = time.time()
-        if now - self._last_render_time > self._min_render_interval:
-            self._last_render_time = now
-            return True
-        return False
-
-    def _update_display(self, force_render: bool = False) -> None:
-        """Bring everything shown up to date with the state: the transfer
-        functions, a camera-linked light, the frame (throttled unless
-        ``force_render``; a throttled frame is rendered a moment later
-        unless another event comes first) and the opacity editor."""
-        self._refresh_image(force_render)
-        if self.opacity_editor is not None:
-            self.opacity_editor.update_plot(self.state.control_points, self.state.selected_control_point)
-
-    def _refresh_image(self, force_render: bool = False) -> None:
-        if self.state.needs_tf_update:
-            self._update_transfer_functions()
-            self.state.needs_render = True
-        self._follow_camera_with_light()
-        if not self.state.needs_render:
-            return
-        if force_render or self._should_render():
-            self._show_frame()
-        else:
-            self._later("pending", max(1, int(self._min_render_interval * 1000)), self._render_pending)
-
-    def _follow_camera_with_light(self) -> None:
-        light = self.renderer.get_light()
-        if not light.is_linked:
-            return
-        try:
-            light.update_from_camera(self.camera_controller.params)
-            self.renderer.set_light(light)
-            self.state.needs_render = True
-        except Exception as e:
-            print(f"Warning: Failed to update linked light: {e}")
-            light.unlink_from_camera()  # one failure, not one per frame
-            self.state.light_linked_to_camera = False
-
-    def _show_frame(self) -> None:
-        cheap = self._cheap
-        img = self._render_volume()
-        self._last_render_time = time.time()
-        self.state.needs_render = False
-        if self.image_display is None:
-            return
-        self.image_display.redraw_on_update = False  # drawn below: blitted while cheap
-        self.image_display.update_image(img)
-        if cheap:
-            self.refinement.stop()
-            if self.fig is not None:
-                self._blit(self.image_display)
-        else:
-            self._update_status_display()
-            if self.refinement is not None:
-                self.refinement.restart()
-                self._refine_later()
-        if self._event_time is not None:
-            latency = time.perf_counter() - self._event_time
-            if cheap:
-                self.drag_latencies.append(latency)
-                self.drag_quality.record(latency)
-            else:
-                self.release_latencies.append(latency)
-            self._event_time = None
-
-    def _later(self, name: str, interval_ms: int, callback) -> None:
-        """(Re)start the single-shot timer ``name`` (none before the figure)."""
-        if self.fig is None:
-            return
-        timer = self._timers.get(name)
-        if timer is None:
-            timer = self._timers[name] = self.fig.canvas.new_timer(interval=interval_ms)
-            timer.single_shot = True
-            timer.add_callback(callback)
-        timer.stop()
-        timer.start()
-
-    def _render_pending(self) -> None:
-        if self.state.needs_render:
-            self._update_display(force_render=True)
-
-    def _refine_later(self) -> None:
-        if self.refinement.pending:
-            # Between frames the event loop runs: any event is handled first.
-            self._later("refine", 1, self._refine_step)
-
-    def _refine_step(self) -> None:
-        """One more unbiased frame into the still view's running mean."""
-        if self._interacting or self.refinement is None or not self.refinement.pending:
-            return
-        try:
-            img = self.refinement.step()
-        except Exception as e:  # the window must survive any one bad frame
-            warnings.warn(f"Rendering error: {e}", RuntimeWarning, stacklevel=2)
-            self.refinement.stop()
-            return
-        if img is not None and self.image_display is not None:
-            self._cached_image = img
-            self.image_display.update_image(img)
-            self.fig.canvas.draw_idle()
-        self._refine_later()
-
-    def _blit(self, widget) -> None:
-        """Redraw only ``widget``'s axes (a full figure redraw costs more than
-        a cheap frame); a full redraw before the first one."""
-        canvas = self.fig.canvas
-        if not getattr(canvas, "supports_blit", False) or not self._drawn:
-            canvas.draw_idle()
-            return
-        for artist in widget.artists():
-            widget.ax.draw_artist(artist)
-        canvas.blit(widget.ax.bbox)
 
     def _get_full_info_text(self) -> str:
         """The info panel: the controls, then the current status."""
@@ -409,244 +264,6 @@ class InteractiveVolumeRenderer:
         for name, keys in getattr(self, "_original_keymaps", {}).items():
             matplotlib.rcParams[f"keymap.{name}"] = keys
         self._original_keymaps = {}
-
-    # -- interaction quality ---------------------------------------------
-    def _switch_to_interaction_quality(self) -> None:
-        """An interaction begins: cheap frames until it ends."""
-        if not self._interacting:
-            self._interacting = True
-            if self.drag_quality is not None:
-                self.drag_quality.start()
-
-    def _restore_quality_after_interaction(self) -> None:
-        """The interaction ended: one frame at the renderer's own quality."""
-        self._interacting = False
-        self.state.needs_render = True
-        self._update_display(force_render=True)
-
-    # -- events ------------------------------------------------------------
-    def _in(self, widget, event) -> bool:
-        return widget is not None and event.inaxes is not None and event.inaxes == widget.ax
-
-    def _on_mouse_press(self, event) -> None:
-        self._event_time = time.perf_counter()
-        if self._in(self.image_display, event):
-            if event.button == 1:
-                self.state.is_dragging_camera = True
-                self.state.drag_start_pos = (event.xdata, event.ydata)
-                if self.state.auto_quality_enabled:
-                    self._switch_to_interaction_quality()
-        elif self._in(self.opacity_editor, event):
-            if event.button == 1:
-                self._handle_opacity_left_click(event)
-            elif event.button == 3:
-                self._handle_opacity_right_click(event)
-
-    def _find_control_point_near(self, x: float, y: float, threshold: float = 0.05) -> Optional[int]:
-        """Index of the control point nearest (x, y) if closer than ``threshold``."""
-        pts = np.asarray(self.state.control_points, np.float64)
-        d = np.hypot(pts[:, 0] - x, pts[:, 1] - y)
-        i = int(np.argmin(d))
-        return i if d[i] < threshold else None
-
-    def _handle_opacity_left_click(self, event) -> None:
-        """Select the point under the click, else add one there; either way
-        it can then be dragged."""
-        x, y = event.xdata, event.ydata
-        if x is None or y is None:
-            return
-        i = self._find_control_point_near(x, y)
-        if i is None:
-            i = self.state.add_control_point(float(np.clip(x, 0.0, 1.0)), float(np.clip(y, 0.0, 1.0)))
-        self.state.select_control_point(i)
-        self.state.is_dragging_control_point = True
-        self.state.drag_start_pos = (x, y)
-        if self.state.auto_quality_enabled:
-            self._switch_to_interaction_quality()
-        self._update_display(force_render=True)
-
-    def _handle_opacity_right_click(self, event) -> None:
-        """Remove the point under the click (not the end points)."""
-        if event.xdata is None or event.ydata is None:
-            return
-        self._remove_point(self._find_control_point_near(event.xdata, event.ydata))
-
-    def _remove_point(self, i: Optional[int]) -> None:
-        """Remove control point ``i`` and show the result; nothing for None
-        or an end point."""
-        if i is None:
-            return
-        try:
-            self.state.remove_control_point(i)
-        except ValueError:
-            return  # an end point
-        self._update_display(force_render=True)
-
-    def _on_mouse_move(self, event) -> None:
-        if self.state.is_dragging_camera:
-            if not self._in(self.image_display, event) or event.xdata is None or self.state.drag_start_pos is None:
-                return
-            self._event_time = time.perf_counter()
-            x0, y0 = self.state.drag_start_pos
-            dx, dy = event.xdata - x0, event.ydata - y0
-            if self.state.camera_control_mode == "trackball":
-                # The image's y grows upward, the trackball's downward.
-                self.camera_controller.trackball(dx=dx, dy=-dy, viewport_width=self.width,
-                                                 viewport_height=self.height, sensitivity=1.0)
-            else:
-                self.camera_controller.orbit(delta_azimuth=-0.005 * dx, delta_elevation=0.005 * dy)
-            self.state.drag_start_pos = (event.xdata, event.ydata)
-            self.state.needs_render = True
-            self._update_display()
-        elif self.state.is_dragging_control_point:
-            i = self.state.selected_control_point
-            if i is None or not self._in(self.opacity_editor, event) or event.xdata is None:
-                return
-            self._event_time = time.perf_counter()
-            try:
-                self.state.update_control_point(i, np.clip(event.xdata, 0.0, 1.0), np.clip(event.ydata, 0.0, 1.0))
-            except (ValueError, IndexError):
-                return
-            self.opacity_editor.update_plot(self.state.control_points, self.state.selected_control_point)
-            if self._native:  # other renderers show the new function on release
-                self._refresh_image()
-                if self._cheap and self._drawn:
-                    self._blit(self.opacity_editor)
-                elif self.fig is not None:
-                    self.fig.canvas.draw_idle()
-
-    def _on_mouse_release(self, event) -> None:
-        self._event_time = time.perf_counter()
-        if self.state.is_dragging_camera or self.state.is_dragging_control_point:
-            self.state.is_dragging_camera = False
-            self.state.is_dragging_control_point = False
-            self.state.drag_start_pos = None
-            self._restore_quality_after_interaction()
-
-    def _on_scroll(self, event) -> None:
-        if not self._in(self.image_display, event):
-            return
-        self._event_time = time.perf_counter()
-        if self.state.auto_quality_enabled:
-            self._switch_to_interaction_quality()
-        self.camera_controller.zoom(factor=0.9 if event.step > 0 else 1.1)
-        self.state.needs_render = True
-        self._update_display()
-        self._later("scroll", 500, self._on_scroll_end)
-
-    def _on_scroll_end(self) -> None:
-        if self._interacting and not (self.state.is_dragging_camera or self.state.is_dragging_control_point):
-            self._event_time = time.perf_counter()
-            self._restore_quality_after_interaction()
-
-    def _update_cursor(self, event) -> None:
-        """A hand over the image, a crosshair over the opacity editor."""
-        if self.fig is None:
-            return
-        if self._in(self.image_display, event):
-            cursor = Cursors.HAND
-        elif self._in(self.opacity_editor, event):
-            cursor = Cursors.SELECT_REGION
-        else:
-            cursor = Cursors.POINTER
-        try:
-            self.fig.canvas.set_cursor(cursor)
-        except (SystemError, RuntimeError):
-            pass  # some backends cannot change the cursor; it is only a hint
-
-    def _on_colormap_change(self, colormap_name: str) -> None:
-        self._event_time = time.perf_counter()
-        self.state.set_colormap(colormap_name)
-        self._update_display()
-
-    def _on_preset_change(self, preset_name: str) -> None:
-        self._event_time = time.perf_counter()
-        self.state.set_preset(preset_name)
-        config = self._preset(preset_name)
-        self.renderer.set_config(config)
-        self.state.needs_render = True
-        self._update_display(force_render=True)
-        print(f"Switched to '{preset_name}' preset (~{config.estimate_samples_per_ray()} samples/ray)")
-        self._update_status_display()
-
-    def _on_key_press(self, event) -> None:
-        self._event_time = time.perf_counter()
-        action = {
-            "r": self._reset_view, "s": self._save_image, "f": self._toggle_fps, "h": self._toggle_histogram,
-            "l": self._toggle_light_link, "q": self._toggle_auto_quality, "t": self._toggle_control_mode,
-            "escape": self._deselect, "delete": self._delete_selected, "backspace": self._delete_selected,
-        }.get(event.key)
-        if action is not None:
-            action()
-
-    def _reset_view(self) -> None:
-        self.camera_controller.params = Camera.isometric_view(distance=3.0)
-        self.state.needs_render = True
-        self._update_display(force_render=True)
-
-    def _toggle_fps(self) -> None:
-        self.state.show_fps = not self.state.show_fps
-        if self.image_display is not None:
-            self.image_display.set_fps_visible(self.state.show_fps)
-        self._update_status_display()
-
-    def _toggle_histogram(self) -> None:
-        self.state.show_histogram = not self.state.show_histogram
-        if self.opacity_editor is not None:
-            self.opacity_editor.set_histogram_visible(self.state.show_histogram)
-        print(f"Histogram {'visible' if self.state.show_histogram else 'hidden'}")
-        self._update_status_display()
-
-    def _toggle_light_link(self) -> None:
-        try:
-            self._switch_light_link()
-        except Exception as e:  # the window must survive a bad light or camera
-            print(f"Error toggling light linking: {e}")
-
-    def _switch_light_link(self) -> None:
-        light = self.renderer.get_light()
-        if light.is_linked:
-            light.unlink_from_camera()
-            self.renderer.set_light(light)
-            self.state.light_linked_to_camera = False
-            print("Light unlinked from camera (fixed position)")
-            self.state.needs_render = True
-            self._update_display(force_render=True)
-            self._update_status_display()
-        else:
-            self.set_camera_linked_lighting(quiet=True)
-            print("Light linked to camera (will follow movement)")
-
-    def _toggle_auto_quality(self) -> None:
-        self.state.auto_quality_enabled = not self.state.auto_quality_enabled
-        print(f"Automatic quality adjustment {'enabled' if self.state.auto_quality_enabled else 'disabled'}")
-        self._update_status_display()
-
-    def _toggle_control_mode(self) -> None:
-        if self.state.camera_control_mode == "trackball":
-            self.state.camera_control_mode = "orbit"
-            print("Switched to orbit control (azimuth/elevation)")
-        else:
-            self.state.camera_control_mode = "trackball"
-            print("Switched to trackball control (arcball)")
-        self._update_status_display()
-
-    def _deselect(self) -> None:
-        if self.state.selected_control_point is not None:
-            self.state.select_control_point(None)
-            self._update_display()
-
-    def _delete_selected(self) -> None:
-        self._remove_point(self.state.selected_control_point)
-
-    def _on_draw(self, event) -> None:
-        # Blitting draws over the last full drawing, so there must be one.
-        self._drawn = True
-
-    def _on_close(self, event) -> None:
-        for timer in self._timers.values():
-            timer.stop()
-        self._restore_matplotlib_keymaps()
 
     # -- public actions ----------------------------------------------------
     def _save_image(self, filename: Optional[str] = None) -> Optional[str]:
