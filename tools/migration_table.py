@@ -22,7 +22,7 @@ INTRO = """# Migrating from pyvr 0.4.1
 Generated from [migration.toml](migration.toml) by `tools/migration_table.py`; edit that file.
 
 Everything public in pyvr 0.4.1 keeps its module path, name, signature,
-defaults, attributes, exception class and message text, except where a row
+defaults, attributes, exception class, message text and repr, except where a row
 below says otherwise: `tests/compat/test_pyvr041_surface.py` compares pyvr
 with a record of pyvr 0.4.1's surface (`tests/compat/pyvr041_surface.json`,
 derived from its source by `tools/pyvr041_surface.py`) and fails on any

@@ -13,9 +13,9 @@ of the package:
   and property, with its parameters (name, kind, default as source text);
 - ``classes``: bases, the public attributes ``__init__`` assigns to
   ``self``, and a dataclass's fields with their defaults;
-- ``messages``: the literal text of every ``raise X("...")``, ``print``
-  and ``warnings.warn`` (the parts outside ``{}`` placeholders), with
-  where it is and which exception class.
+- ``messages``: the literal text of every ``raise X("...")``, ``print``,
+  ``warnings.warn`` and ``__repr__``/``__str__`` result (the parts outside
+  ``{}`` placeholders), with where it is and which exception class.
 
 ``tests/compat/test_pyvr041_surface.py`` checks pyvr against this record;
 the differences that are intended are listed in ``docs/migration.toml``.
@@ -129,6 +129,13 @@ class Module(ast.NodeVisitor):
             if any(p.strip() for p in parts):
                 self.messages.append({"where": self.where(), "kind": "raise", "class": ast.unparse(exc.func),
                                       "parts": parts})
+        self.generic_visit(node)
+
+    def visit_Return(self, node):
+        if self.scope[-1] in ("__repr__", "__str__") and node.value is not None:
+            parts = literal_parts(node.value)
+            if any(p.strip() for p in parts):
+                self.messages.append({"where": self.where(), "kind": "repr", "parts": parts})
         self.generic_visit(node)
 
     def visit_Call(self, node):

@@ -3,7 +3,7 @@ signatures of its functions and methods (parameter names, order, kinds and
 defaults; new parameters only after them, with defaults), the attributes
 its classes have after construction, dataclass defaults, exception
 classes, and the text of its messages (errors, printed feedback,
-warnings).
+warnings) and reprs.
 
 The record of pyvr 0.4.1 is ``pyvr041_surface.json`` beside this file,
 derived from pyvr 0.4.1's source by ``tools/pyvr041_surface.py``. Every
@@ -254,9 +254,30 @@ def _our_messages():
                 if parts:
                     messages.append((parts, raised.get(id(node))))
     for path in (ROOT / "src").rglob("*.rs"):
-        for literal in re.findall(r'"((?:[^"\\]|\\.)*)"', path.read_text()):
+        for literal in _rust_strings(path.read_text()):
             messages.append((re.split(r"\{[^{}]*\}", literal), None))
     return messages
+
+
+_RUST_TOKEN = re.compile(r"""
+      //[^\n]*                              # line comment
+    | /\*.*?\*/                              # block comment
+    | r(?P<hashes>\#*)"(?P<raw>.*?)"(?P=hashes)  # raw string
+    | b?"(?P<text>(?:[^"\\]|\\.)*)"          # string
+    | '(?:[^'\\]|\\.[^']*)'                  # char literal
+    """, re.VERBOSE | re.DOTALL)
+
+
+def _rust_strings(source: str) -> list:
+    """The string literals of Rust source (comments and char literals,
+    which may hold quotes, skipped); a line continuation joins lines."""
+    out = []
+    for m in _RUST_TOKEN.finditer(source):
+        if m.group("raw") is not None:
+            out.append(m.group("raw"))
+        elif m.group("text") is not None:
+            out.append(re.sub(r"\\\n\s*", "", m.group("text")))
+    return out
 
 
 def _makes(parts: list, text: str) -> bool:
