@@ -52,9 +52,11 @@ class FramePipeline:
         functions, a camera-linked light, the frame (throttled unless
         ``force_render``; a throttled frame is rendered a moment later
         unless another event comes first) and the opacity editor."""
-        self._refresh_image(force_render)
         if self.opacity_editor is not None:
             self.opacity_editor.update_plot(self.state.control_points, self.state.selected_control_point)
+        self._refresh_image(force_render)
+        if not self._cheap and self._figure_changed():
+            self._update_status_display()
 
     def _refresh_image(self, force_render: bool = False) -> None:
         if self.state.needs_tf_update:
@@ -90,12 +92,13 @@ class FramePipeline:
             return
         self.image_display.redraw_on_update = False  # drawn below: blitted while cheap
         self.image_display.update_image(img)
+        if not cheap and self._figure_changed():
+            self._update_status_display()  # the editor or the info panel changed too
+        elif self.fig is not None:
+            self._blit(self.image_display)  # only the image changed
         if cheap:
             self.refinement.stop()
-            if self.fig is not None:
-                self._blit(self.image_display)
         else:
-            self._update_status_display()
             if self.refinement is not None:
                 self.refinement.restart()
                 self._refine_later()
@@ -142,8 +145,18 @@ class FramePipeline:
         if img is not None and self.image_display is not None:
             self._cached_image = img
             self.image_display.update_image(img)
-            self.fig.canvas.draw_idle()
+            self._blit(self.image_display)
         self._refine_later()
+
+    def _figure_key(self) -> tuple:
+        """What the figure shows besides the image: the info panel and the
+        opacity editor's points."""
+        return (self._get_full_info_text(), tuple(self.state.control_points), self.state.selected_control_point)
+
+    def _figure_changed(self) -> bool:
+        """Whether the figure around the image differs from its last full
+        drawing (then it needs one; else blitting the image is enough)."""
+        return self._figure_key() != self._drawn_key
 
     def _blit(self, widget) -> None:
         """Redraw only ``widget``'s axes (a full figure redraw costs more than

@@ -119,6 +119,7 @@ class InteractiveVolumeRenderer(FramePipeline, EventHandlers):
         self._min_render_interval = 0.05
         self._interacting = False
         self._drawn = False
+        self._drawn_key = None  # _figure_key() at the last full drawing
         self._timers = {}
         self._event_time: Optional[float] = None
         # Event-to-pixels seconds of the latest frames, drag and full.
@@ -176,19 +177,14 @@ class InteractiveVolumeRenderer(FramePipeline, EventHandlers):
         if isinstance(offsets, dict):
             status.append(f"    (offsets: az={offsets['azimuth']:.2f}, el={offsets['elevation']:.2f})")
         if self._native:
-            c = self.camera_controller.params
-            status += [
-                f"  Camera: az {np.degrees(c.azimuth):.0f}, el {np.degrees(c.elevation):.0f} deg, "
-                f"d {float(c.distance):.2f}",
-                f"  Dragging: {self.drag_quality.describe()}",
-                f"  Last frame: {self.drag_quality.last_render_seconds * 1e3:.0f} ms",
-            ]
+            status.append(f"  Dragging: {self.drag_quality.describe()}")
         return _CONTROLS + "\n".join(status)
 
     def _update_status_display(self) -> None:
         """Rewrite the info panel and redraw the figure."""
+        self._drawn_key = self._figure_key()
         if self.info_text is not None:
-            self.info_text.set_text(self._get_full_info_text())
+            self.info_text.set_text(self._drawn_key[0])
         if self.fig is not None:
             self.fig.canvas.draw_idle()
 
