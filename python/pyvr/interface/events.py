@@ -100,10 +100,10 @@ class EventHandlers:
             self.opacity_editor.update_plot(self.state.control_points, self.state.selected_control_point)
             if self._native:  # other renderers show the new function on release
                 self._refresh_image()
-                if self._cheap and self._drawn:
+                if self._cheap:
                     self._blit(self.opacity_editor)
-                elif self.fig is not None:
-                    self.fig.canvas.draw_idle()
+                elif self._figure_changed():
+                    self._update_status_display()
 
     def _on_mouse_release(self, event) -> None:
         self._event_time = time.perf_counter()

@@ -94,7 +94,7 @@ class FramePipeline:
         self.image_display.update_image(img)
         if not cheap and self._figure_changed():
             self._update_status_display()  # the editor or the info panel changed too
-        elif self.fig is not None:
+        else:
             self._blit(self.image_display)  # only the image changed
         if cheap:
             self.refinement.stop()
@@ -161,6 +161,8 @@ class FramePipeline:
     def _blit(self, widget) -> None:
         """Redraw only ``widget``'s axes (a full figure redraw costs more than
         a cheap frame); a full redraw before the first one."""
+        if self.fig is None:
+            return
         canvas = self.fig.canvas
         if not getattr(canvas, "supports_blit", False) or not self._drawn:
             canvas.draw_idle()
