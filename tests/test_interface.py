@@ -490,6 +490,10 @@ def test_widgets_standalone():
     assert seen == ["magma"] and c.current_colormap == "magma"
     with pytest.raises(ValueError, match="Colormap 'nope' not available. Choose from"):
         c.set_colormap("nope")
+    # A colormap chosen in code, outside the buttons' list, is one more button.
+    t = ColorSelector(fig.add_axes([0, 0, 0.1, 0.1]), initial_colormap="twilight")
+    assert t.current_colormap == "twilight" and t.radio.labels[-1].get_text() == "twilight"
+    assert ColorSelector.AVAILABLE_COLORMAPS[-1] == "jet"
     p = PresetSelector(axes[3], initial_preset="balanced")
     assert p.get_preset() == "balanced"
     assert PresetSelector.PRESET_LABELS[-1] == "Ultra (slowest)"

@@ -246,24 +246,27 @@ class _Choice:
 
 class ColorSelector(_Choice):
     """Chooses the colour transfer function's matplotlib colormap, with a
-    preview bar of the current one (``preview_ax``, ``colormap_preview``)."""
+    preview bar of the current one (``preview_ax``, ``colormap_preview``).
+    An ``initial_colormap`` outside AVAILABLE_COLORMAPS (one chosen in
+    code) is offered as one more button."""
 
     AVAILABLE_COLORMAPS = ["viridis", "plasma", "inferno", "magma", "cividis", "gray", "bone", "copper", "hot",
                            "cool", "turbo", "jet"]
 
     def __init__(self, ax, on_change: Optional[Callable[[str], None]] = None, initial_colormap: str = "viridis"):
-        if initial_colormap not in self.AVAILABLE_COLORMAPS:
-            raise ValueError(self._unknown(initial_colormap))
+        if not isinstance(initial_colormap, str):
+            raise TypeError(f"initial_colormap must be a colormap name, got {type(initial_colormap)}")
         self.ax = ax
         self.current_colormap = initial_colormap
         self.on_change = on_change
-        self.NAMES = self.LABELS = self.AVAILABLE_COLORMAPS
+        self.NAMES = self.LABELS = self.AVAILABLE_COLORMAPS + [initial_colormap] * (
+            initial_colormap not in self.AVAILABLE_COLORMAPS)
         ax.set_title("Color Transfer Function", fontsize=11, fontweight="bold")
         self._create_colormap_preview()
         self._make_radio(initial_colormap)
 
     def _unknown(self, name) -> str:
-        return f"Colormap '{name}' not available. Choose from: {self.AVAILABLE_COLORMAPS}"
+        return f"Colormap '{name}' not available. Choose from: {self.NAMES}"
 
     def _create_colormap_preview(self) -> None:
         # Below the buttons, so it hides none of them.
@@ -284,7 +287,7 @@ class ColorSelector(_Choice):
     def set_colormap(self, colormap_name: str, notify: bool = True) -> None:
         """Select a colormap from code; ``on_change`` is called unless
         ``notify=False``."""
-        if colormap_name not in self.AVAILABLE_COLORMAPS:
+        if colormap_name not in self.NAMES:
             raise ValueError(self._unknown(colormap_name))
         self.current_colormap = colormap_name
         self._select(colormap_name, notify)
