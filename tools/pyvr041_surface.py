@@ -91,9 +91,14 @@ class Module(ast.NodeVisitor):
         qual = f"{self.where()}.{node.name}"
         info = {"bases": [ast.unparse(b) for b in node.bases], "init_attributes": [], "fields": {}}
         if "dataclass" in decorator_names(node):
+            init = [["self", "POSITIONAL_OR_KEYWORD", None]]
             for stmt in node.body:
                 if isinstance(stmt, ast.AnnAssign) and isinstance(stmt.target, ast.Name) and public(stmt.target.id):
-                    info["fields"][stmt.target.id] = None if stmt.value is None else ast.unparse(stmt.value)
+                    default = None if stmt.value is None else ast.unparse(stmt.value)
+                    init.append([stmt.target.id, "POSITIONAL_OR_KEYWORD", default])
+                    info["fields"][stmt.target.id] = default
+            # The __init__ the dataclass decorator writes: its public fields, in order.
+            self.callables[f"{qual}.__init__"] = {"kind": "function", "params": init}
         for stmt in node.body:
             if isinstance(stmt, ast.FunctionDef) and stmt.name == "__init__":
                 for sub in ast.walk(stmt):

@@ -140,8 +140,13 @@ render_config_methods! {
         order / set_order: Order;
     }
 
+    // None (also accepted) means the default; the text signature shows
+    // pyvr 0.4.1's defaults for its fields.
     #[new]
-    #[pyo3(signature = (step_size=None, max_steps=None, early_ray_termination=None, opacity_threshold=None, reference_step_size=None, opacity_correction="exponential", *, model="emission_absorption", iso_value=None, anisotropy=None, shadow_step_size=None, jitter=None, jitter_seed=None, pre_integrated=None, refine=None, unbiased=None, exact_filtering=None, order="front_to_back"))]
+    #[pyo3(
+        signature = (step_size=None, max_steps=None, early_ray_termination=None, opacity_threshold=None, reference_step_size=None, opacity_correction="exponential", *, model="emission_absorption", iso_value=None, anisotropy=None, shadow_step_size=None, jitter=None, jitter_seed=None, pre_integrated=None, refine=None, unbiased=None, exact_filtering=None, order="front_to_back"),
+        text_signature = "(step_size=0.01, max_steps=500, early_ray_termination=True, opacity_threshold=0.95, reference_step_size=0.01, opacity_correction='exponential', *, model='emission_absorption', iso_value=None, anisotropy=None, shadow_step_size=None, jitter=None, jitter_seed=None, pre_integrated=None, refine=None, unbiased=None, exact_filtering=None, order='front_to_back')"
+    )]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,

@@ -13,6 +13,7 @@ a listed one that no longer exists."""
 
 import ast
 import builtins
+import dataclasses
 import importlib
 import importlib.util
 import inspect
@@ -84,8 +85,18 @@ def same(a, b) -> bool:
         return a == b
 
 
-def signature_differences(qualname: str, theirs: list, ours) -> list:
-    """How our signature fails to accept every call pyvr 0.4.1's accepted."""
+def _field_defaults(cls) -> dict:
+    """A dataclass's field defaults, factories called (the signature shows
+    only that a factory exists)."""
+    if not dataclasses.is_dataclass(cls):
+        return {}
+    return {f.name: f.default_factory() for f in dataclasses.fields(cls) if f.default_factory is not dataclasses.MISSING}
+
+
+def signature_differences(qualname: str, theirs: list, ours, factories: dict = None) -> list:
+    """How our signature fails to accept every call pyvr 0.4.1's accepted
+    (``factories``: defaults that a dataclass makes per instance)."""
+    factories = factories or {}
     try:
         sig = inspect.signature(ours)
     except (TypeError, ValueError):
@@ -116,7 +127,7 @@ def signature_differences(qualname: str, theirs: list, ours) -> list:
         if default is not None:
             if mine.default is mine.empty:
                 out.append(f"signature {qualname}: {name} has no default")
-            elif not same(mine.default, default_value(default)):
+            elif not same(factories.get(name, mine.default), default_value(default)):
                 out.append(f"signature {qualname}: {name} defaults to {mine.default!r}, pyvr 0.4.1 to {default}")
     known = {p[0] for p in theirs}
     for p in ours_params:
@@ -157,7 +168,7 @@ def signature_list() -> list:
             obj = obj.__func__
         if qualname.endswith(".__init__"):
             owner = resolve(qualname.rsplit(".", 1)[0])
-            found += signature_differences(qualname, info["params"], owner)
+            found += signature_differences(qualname, info["params"], owner, _field_defaults(owner))
         else:
             found += signature_differences(qualname, info["params"], obj)
     return found
