@@ -13,7 +13,6 @@ import pytest
 from matplotlib.backend_bases import KeyEvent, MouseEvent
 
 from pyvr import VolumeRenderer
-
 from pyvr.datasets import compute_normal_volume, create_sample_volume
 from pyvr.interface import ColorSelector, ImageDisplay, InteractiveVolumeRenderer, InterfaceState, OpacityEditor
 from pyvr.interface import cache, matplotlib_interface, state, widgets
