@@ -316,6 +316,57 @@ def case_xdg():
     return True
 
 
+def _nrrd_header(sizes="4 4 4", encoding="raw", extra=""):
+    return (f"NRRD0004\ntype: float\ndimension: 3\nsizes: {sizes}\nencoding: {encoding}\n"
+            f"endian: little\n{extra}\n").encode()
+
+
+def case_nrrd(kind, folder):
+    """A hostile NRRD of ``kind`` written in ``folder``, then loaded."""
+    from pyvr.dataloaders import load_nrrd
+
+    os.makedirs(os.path.join(folder, "scan"), exist_ok=True)
+    header = os.path.join(folder, "scan", "h.nhdr")
+    values = np.arange(64, dtype="<f4")
+    secret = os.path.join(folder, "secret.raw")
+    values.tofile(secret)
+    options = {}
+    if kind in ("parent", "parent_allowed"):
+        body = _nrrd_header(extra="data file: ../secret.raw\n")
+        options = {"data_outside_folder": True} if kind == "parent_allowed" else {}
+    elif kind == "absolute":
+        body = _nrrd_header(extra=f"data file: {secret}\n")
+    elif kind == "tail_of_any_file":
+        body = _nrrd_header(sizes="2 2 2", extra="data file: /etc/passwd\nbyte skip: -1\n")
+    elif kind == "same_folder":
+        values.tofile(os.path.join(folder, "scan", "d.raw"))
+        body = _nrrd_header(extra="data file: d.raw\n")
+    elif kind == "line_skip":
+        header = os.path.join(folder, "scan", "h.nrrd")
+        body = _nrrd_header(extra="line skip: 99999999999\n") + b"\x00" * 40
+    elif kind == "gzip_bomb":  # about 1 MB of gzip inflating to 1 GiB, for 1000 voxels
+        import zlib
+
+        header = os.path.join(folder, "scan", "h.nrrd")
+        deflate = zlib.compressobj(9, zlib.DEFLATED, zlib.MAX_WBITS | 16)
+        zeros = bytes(1 << 24)
+        bomb = b"".join(deflate.compress(zeros) for _ in range(64)) + deflate.flush()
+        body = _nrrd_header(sizes="10 10 10", encoding="gzip") + bomb
+    elif kind == "raw_short":
+        header = os.path.join(folder, "scan", "h.nrrd")
+        body = _nrrd_header(sizes="400 400 400") + bytes(1000)
+    elif kind == "nan_directions":
+        header = os.path.join(folder, "scan", "h.nrrd")
+        body = (_nrrd_header(extra="space: right-anterior-superior\n"
+                             "space directions: (nan,0,0) (0,1,0) (0,0,1)\n") + values.tobytes())
+    else:
+        raise ValueError(kind)
+    with open(header, "wb") as f:
+        f.write(body)
+    image = load_nrrd(header, **options)
+    return f"loaded {image.data.shape} sum {float(np.sum(image.data)):.0f}"
+
+
 if __name__ == "__main__":
     sys.path.insert(0, os.path.dirname(__file__))
     try:
