@@ -97,6 +97,14 @@ def test_raw_with_info(tmp_path):
     im = load_raw(tmp_path / "b.raw")
     check_image(im, field(np.float32))
     assert im.data.dtype == np.float32 and im.data.dtype.isnative
+    # "key value" lines, no colon, as many tools write them; keys of two words too.
+    (tmp_path / "b.raw.info").write_text("dimensions 5 4 3\ndata type float\nspacing 0.5 0.75 2\n"
+                                         "origin 1 -2 3\nbyte order big\nheader size 8\n")
+    im = load_raw(tmp_path / "b.raw")
+    check_image(im, field(np.float32))
+    with pytest.raises(FileFormatError, match="line 2: expected 'key: value' or 'key value', got 'colour red'"):
+        (tmp_path / "b.raw.info").write_text("dimensions 5 4 3\ncolour red\n")
+        load_raw(tmp_path / "b.raw")
 
 
 def test_vti_geometry(tmp_path):

@@ -60,6 +60,16 @@ def info_path(path) -> Path:
     return p if p.name.endswith(".info") else p.with_name(p.name + ".info")
 
 
+def _key_and_value(line: str):
+    """A ``key value`` line (no colon, as many tools write them): the
+    longest run of leading words that is a known key, and the rest."""
+    words = line.split()
+    for i in range(len(words) - 1, 0, -1):
+        if "_".join(words[:i]).lower() in _KEYS:
+            return " ".join(words[:i]), " ".join(words[i:])
+    return None, None
+
+
 def parse_info(path) -> dict:
     """The header's fields, checked, as python values."""
     path = str(path)
@@ -71,12 +81,13 @@ def parse_info(path) -> dict:
         if not line:
             continue
         m = re.match(r"([A-Za-z_ ]+?)\s*[:=]\s*(.*)$", line)
-        if not m:
-            raise FileFormatError(f"{path}, line {n}: expected 'key: value', got {line!r}")
-        key = _KEYS.get(m.group(1).strip().lower().replace(" ", "_"))
+        name, value = (m.group(1).strip(), m.group(2)) if m else _key_and_value(line)
+        if name is None:
+            raise FileFormatError(f"{path}, line {n}: expected 'key: value' or 'key value', got {line!r}")
+        key = _KEYS.get(name.lower().replace(" ", "_"))
         if key is None:
-            raise FileFormatError(f"{path}, line {n}: unknown key {m.group(1).strip()!r}; known: {sorted(set(_KEYS))}")
-        fields[key] = m.group(2).strip()
+            raise FileFormatError(f"{path}, line {n}: unknown key {name!r}; known: {sorted(set(_KEYS))}")
+        fields[key] = value.strip()
     for key in ("dimensions", "type"):
         if key not in fields:
             raise FileFormatError(f"{path}: the header has no {key!r} line")
