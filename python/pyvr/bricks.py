@@ -94,6 +94,8 @@ def read_block(data: Any, ranges: Sequence[Sequence[int]]) -> np.ndarray:
         direct = _read_file_block(data, ranges)
         if direct is not None:
             return direct
+    if isinstance(data, np.memmap):
+        _check_mapped_file(data)
     block = data[sl]
     if mod == "dask":
         block = block.compute()
@@ -101,6 +103,30 @@ def read_block(data: Any, ranges: Sequence[Sequence[int]]) -> np.ndarray:
         block = np.array(block)
         _release_pages(data)
     return np.asarray(block)
+
+
+def _check_mapped_file(mm: np.memmap) -> None:
+    """A clear error, before any page is touched, when a memmap's file is
+    now shorter than its mapping: reading such a page kills the process
+    with SIGBUS."""
+    import mmap
+    import os
+
+    base = mm
+    while base is not None and not isinstance(base, mmap.mmap):
+        base = getattr(base, "base", None)
+    filename = getattr(mm, "filename", None)
+    if base is None or not filename:
+        return
+    # numpy maps from the offset rounded down to the allocation granularity.
+    start = int(getattr(mm, "offset", 0)) // mmap.ALLOCATIONGRANULARITY * mmap.ALLOCATIONGRANULARITY
+    try:
+        size = os.path.getsize(filename)
+    except OSError as e:
+        raise ValueError(f"{filename}: the memmap's file cannot be read any more ({e})") from None
+    if size < start + len(base):
+        raise ValueError(f"{filename} ends before the memmap's shape {mm.shape} says it does "
+                         f"({size} bytes, the mapping needs {start + len(base)})")
 
 
 def _read_file_block(mm: np.memmap, ranges) -> Optional[np.ndarray]:

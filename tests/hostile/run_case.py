@@ -316,6 +316,26 @@ def case_xdg():
     return True
 
 
+def case_truncated_memmap(layout, path):
+    """A memmap ("C", "F", or "view": every other slice of a C one) whose
+    file is cut short after it was mapped, rendered in bricks: a clear
+    error, never SIGBUS."""
+    from pyvr import VolumeRenderer
+    from pyvr.volume import Volume
+
+    shape, order = (48, 40, 36), "F" if layout == "F" else "C"
+    mm = np.memmap(path, dtype=np.float32, mode="w+", shape=shape, order=order)
+    mm[:] = np.random.RandomState(1).rand(*shape)
+    mm.flush()
+    del mm
+    data = np.memmap(path, dtype=np.float32, mode="r", shape=shape, order=order)
+    r = VolumeRenderer(32, 32, brick_shape=(16, 16, 16))
+    r.load_volume(Volume(data[::2] if layout == "view" else data))
+    os.truncate(path, 4096)
+    r.render()
+    return "rendered"
+
+
 def _nrrd_header(sizes="4 4 4", encoding="raw", extra=""):
     return (f"NRRD0004\ntype: float\ndimension: 3\nsizes: {sizes}\nencoding: {encoding}\n"
             f"endian: little\n{extra}\n").encode()
