@@ -140,7 +140,7 @@ def test_save_gif_and_mp4(renderer, tmp_path):
     # GIF stores a palette; the first frame's colours stay near the render over black.
     ref = (frames[0][..., :3].astype(float) * frames[0][..., 3:4] / 255.0)
     assert np.abs(gif[0].astype(float) - ref).mean() < 6
-    n = save_animation(iter(frames), tmp_path / "o.mp4", fps=10)
+    n = save_animation(iter(frames), tmp_path / "o.mp4", fps=np.float32(10))  # numpy numbers are numbers
     with iio2.get_reader(tmp_path / "o.mp4") as r:
         video = [f for f in r]
     assert n == 6 and len(video) == 6 and video[0].shape == (H, W, 3)  # even sizes pass unpadded
@@ -156,9 +156,59 @@ def test_save_animation_errors_leave_no_file(tmp_path):
         save_animation(frames, tmp_path / "bad.avi")
     with pytest.raises(ValueError, match="got no frames"):
         save_animation([], tmp_path / "empty.gif")
+    for bad, exc, message in ((True, TypeError, "fps must be a number, got bool"),
+                              (1e-300, ValueError, "fps must be from 0.001526 to 1000 frames per second"),
+                              (float("nan"), ValueError, "fps must be from"), (0, ValueError, "fps must be from")):
+        with pytest.raises(exc, match=message):
+            save_animation(frames, tmp_path / "fps.gif", fps=bad)
+    with pytest.raises(ValueError, match="loop must be at most 65535, got 100000"):
+        save_animation(frames, tmp_path / "loop.gif", loop=100000)
+    with pytest.raises(TypeError, match="loop must be an integer, got bool"):
+        save_animation(frames, tmp_path / "loop.gif", loop=True)
     with pytest.raises(ValueError, match="uint8"):
         save_animation([np.zeros((4, 4, 4))], tmp_path / "f.gif")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_saves_to_one_path_from_two_threads_do_not_mix(tmp_path):
+    """Each save writes its own temporary file: both succeed with their own
+    frames, and the file is one of them whole."""
+    import threading
+
+    target = tmp_path / "same.gif"
+    results = {}
+    both_writing = threading.Barrier(2, timeout=30)
+    partial_files = []
+
+    def frame(value):
+        f = np.full((16, 16, 4), value, np.uint8)
+        f[..., 3] = 255  # opaque: the GIF holds the value itself
+        return f
+
+    def frames(level):
+        for i in range(30):
+            if i == 29:  # both saves are under way: each has a file of its own
+                both_writing.wait()
+                partial_files.append(len(list(tmp_path.glob(".same.gif.*partial.gif"))))
+                both_writing.wait()  # both have counted before either finishes
+            yield frame(level + i)
+
+    def save(level):
+        results[level] = save_animation(frames(level), target, fps=20)
+
+    threads = [threading.Thread(target=save, args=(level,)) for level in (40, 220)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    import imageio.v3 as iio
+
+    gif = iio.imread(target, index=None)
+    assert partial_files == [2, 2]
+    assert results == {40: 30, 220: 30} and gif.shape[0] == 30
+    shown = gif[:, 0, 0, 0].astype(int)
+    assert any(np.array_equal(shown, level + np.arange(30)) for level in (40, 220)), shown
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["same.gif"]
 
 
 # -- lights that follow the camera -------------------------------------------------

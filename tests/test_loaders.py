@@ -188,6 +188,10 @@ def test_nifti(tmp_path):
     np.testing.assert_array_equal(load_nifti(tmp_path / "t.nii", index=1).data, data * 2)
     with pytest.raises(ValueError, match="index="):
         load_nifti(tmp_path / "t.nii")
+    with pytest.raises(TypeError, match="index must be an integer, got bool"):
+        load_nifti(tmp_path / "t.nii", index=True)  # not volume 1
+    with pytest.raises(ValueError, match="index must be at most 1, got 2"):
+        load_nifti(tmp_path / "t.nii", index=2)
 
 
 @pytest.mark.parametrize("detached", [False, True])

@@ -11,14 +11,18 @@ files are assembled by Pillow when the last frame is in). Needs imageio:
 """
 
 import os
+import tempfile
 from pathlib import Path
 from typing import Iterable, Union
 
 import numpy as np
 
 from ._extras import require
+from ._numbers import check_count, is_number
 
 FORMATS = (".gif", ".mp4")
+# A GIF frame's delay is a 16-bit count of hundredths of a second.
+MIN_FPS, MAX_FPS = 100.0 / 65535.0, 1000.0
 
 
 def _opaque(frame: np.ndarray, background: np.ndarray, index: int) -> np.ndarray:
@@ -58,8 +62,14 @@ def save_animation(frames: Iterable[np.ndarray], path: Union[str, os.PathLike], 
     suffix = path.suffix.lower()
     if suffix not in FORMATS:
         raise ValueError(f"save_animation writes {', '.join(FORMATS)} files, got {path.name!r}")
-    if not (isinstance(fps, (int, float)) and np.isfinite(fps) and fps > 0):
-        raise ValueError(f"fps must be a positive number, got {fps!r}")
+    if not is_number(fps):
+        raise TypeError(f"fps must be a number, got {type(fps).__name__}")
+    if not (np.isfinite(fps) and MIN_FPS <= fps <= MAX_FPS):
+        # A GIF stores each frame's delay in hundredths of a second, in 16 bits.
+        raise ValueError(f"fps must be from {MIN_FPS:.4g} to {MAX_FPS:g} frames per second, got {fps!r}")
+    check_count("loop", loop, low=0, high=65535)  # a GIF's repeat count is 16 bits
+    if not (is_number(quality) and 0 <= quality <= 10):
+        raise ValueError(f"quality must be a number from 0 to 10, got {quality!r}")
     bg = np.asarray(background, np.float64).reshape(-1)
     if bg.shape != (3,) or not np.all((bg >= 0) & (bg <= 1)):
         raise ValueError(f"background must be three numbers in [0, 1], got {background!r}")
@@ -67,7 +77,11 @@ def save_animation(frames: Iterable[np.ndarray], path: Union[str, os.PathLike], 
     imageio = require("imageio", "animation", "save_animation")
     if suffix == ".mp4":
         require("imageio_ffmpeg", "animation", "MP4 output")
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.partial{suffix}")
+    # A name of its own for every save, so saves to one path from several
+    # threads or processes never write into one another's file.
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=f".partial{suffix}", dir=path.parent)
+    os.close(fd)
+    tmp = Path(tmp)
     n = 0
     shape = None
     try:

@@ -6,6 +6,7 @@ from typing import Optional
 import numpy as np
 
 from .._extras import require
+from .._numbers import check_count
 from .image import FileFormatError, GridImage, check_shape, check_spacing
 
 
@@ -31,8 +32,7 @@ def load_nifti(path, *, index: Optional[int] = None) -> GridImage:
             if shape[3] != 1:
                 raise FileFormatError(f"{path}: a 4-D image of {shape[3]} volumes; pass index= to choose one")
             index = 0
-        if not 0 <= index < shape[3]:
-            raise ValueError(f"index must be in [0, {shape[3]}), got {index}")
+        index = check_count("index", index, low=0, high=shape[3] - 1)  # True is not an index
         img = img.slicer[..., index]
     elif len(shape) != 3:
         raise FileFormatError(f"{path}: a {len(shape)}-D image; a volume needs 3 dimensions")
