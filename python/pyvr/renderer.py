@@ -411,6 +411,18 @@ UNBIASED_MODELS = ("emission_absorption", "absorption", "emission")
 GRADIENT_SHADED_MODELS = ("emission_absorption", "emission", "isosurface")
 
 
+def _value_map_for(value_range, dtype) -> tuple:
+    """The (scale, offset) taking ``dtype``'s device samples to the transfer
+    functions' [0, 1] over ``value_range``, or a ValueError when it is not
+    finite (a range so wide that high - low overflows, or so narrow that
+    its inverse does)."""
+    scale, offset = sample_map(value_range, dtype)
+    if not (np.isfinite(scale) and scale > 0 and np.isfinite(offset)):
+        raise ValueError(f"value_range {value_range} cannot map {np.dtype(dtype).name} values onto the transfer "
+                         "functions: its width must be a finite positive number whose inverse is finite too")
+    return (scale, offset)
+
+
 def _frame_samples(bounds, cfg: RenderConfig, width: int, height: int) -> float:
     """An upper bound on a frame's samples: every ray across the box's diagonal."""
     diag = float(np.linalg.norm(np.subtract(bounds[1], bounds[0])))
@@ -603,6 +615,8 @@ class VolumeRenderer:
                 "from pyvr.volume import Volume; volume = Volume(data=your_array)"
             )
         volume.validate()
+        # Checked before anything changes: a load that raises leaves the renderer as it was.
+        _value_map_for(self._tf_value_range or volume.value_range, volume.data.dtype)
         if precision not in PRECISIONS:
             raise ValueError(f"precision must be one of {', '.join(map(repr, PRECISIONS))}, got {precision!r}")
         bounds = (_vec(volume.min_bounds), _vec(volume.max_bounds))
@@ -728,6 +742,8 @@ class VolumeRenderer:
             )
         elif ranges:
             value_range = ranges.pop()
+        if self.volume is not None:  # a range the volume's values cannot be mapped with changes nothing
+            _value_map_for(value_range or self.volume.value_range, self.volume.data.dtype)
         limit = device_limits()["max_texture_dimension_2d"]
         if size is None:
             n = max(check_count("color_transfer_function.lut_size", color_transfer_function.lut_size, high=limit),
@@ -769,7 +785,7 @@ class VolumeRenderer:
     def _update_value_map(self) -> None:
         if self.volume is None:
             return
-        self._value_map = sample_map(self.value_range, self.volume.data.dtype)
+        self._value_map = _value_map_for(self.value_range, self.volume.data.dtype)
         self._engine.set_value_map(*self._value_map)
         if self._precision_request == "auto" and self._bricked is None:
             self._rechoose_precision()

@@ -196,3 +196,20 @@ def test_absurd_frames_warn_before_they_start(r):
         with pytest.raises(ValueError):  # then stops at once: the frame is too big for this device
             r.render(config=cfg, size=(2**32 - 1, 1))
     assert any("may take up to" in str(w.message) and "Ctrl-C" in str(w.message) for w in caught), caught
+
+
+def test_a_change_that_raises_leaves_the_renderer_as_it_was():
+    """A value range whose width overflows (high - low = inf) cannot map
+    values onto the transfer functions: load_volume and
+    set_transfer_functions refuse it before changing anything."""
+    r = make_renderer(Volume(blob((8, 8, 8), width=0.6)))
+    before, volume, lut = frame(r), r.get_volume(), r.lut
+    wide = (-1e308, 1e308)
+    with pytest.raises(ValueError, match=r"value_range \(-1e\+308, 1e\+308\) cannot map uint8 values"):
+        r.load_volume(Volume((blob((9, 9, 9), width=0.6) * 255).astype(np.uint8), value_range=wide))
+    with pytest.raises(ValueError, match="cannot map float32 values onto the transfer functions"):
+        r.set_transfer_functions(ColorTransferFunction.from_colormap("plasma"), OpacityTransferFunction.linear(0, 1),
+                                 value_range=wide)
+    assert r.get_volume() is volume and r.value_range == volume.value_range
+    np.testing.assert_array_equal(r.lut, lut)
+    np.testing.assert_array_equal(frame(r), before)
