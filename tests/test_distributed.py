@@ -114,6 +114,33 @@ def test_path_frames_farmed_out_equal_local_frames(client, scene):
         assert seen.sum() > 100 and np.abs(a - b)[seen].max() <= 1
 
 
+@pytest.mark.parametrize("where", ["volume", "transfer functions"])
+def test_value_ranges_reach_the_workers(client, where):
+    """Data in its own units (HU) with the value range on the Volume or on
+    the transfer functions, and a renderer with no volume loaded (the
+    README's pattern): the cluster's image is the renderer's."""
+    d = pyvr.datasets.create_sample_volume(32, "double_sphere")
+    hu = (d * 2000 - 1000).astype(np.int16)
+    hu_range = (-1000.0, 1000.0)
+    on_volume = hu_range if where == "volume" else None
+    lazy = Volume(data=da.from_array(hu, chunks=(16, 16, 16)), value_range=on_volume)
+
+    def renderer():
+        r = VolumeRenderer(40, 32, config=config(early_ray_termination=False), brick_shape=(16, 16, 16))
+        r.set_transfer_functions(ColorTransferFunction.from_colormap("viridis"),
+                                 OpacityTransferFunction.linear(0.0, 0.5),
+                                 value_range=None if on_volume else hu_range)
+        r.set_camera(Camera.from_spherical(np.zeros(3), 0.7, 0.4, 0.0, 3.0))
+        return r
+
+    local = renderer()
+    local.load_volume(Volume(data=hu, value_range=on_volume))
+    want = local.render(dtype=np.float32, premultiplied=True)
+    got = pyvr.distributed.render(renderer(), lazy, client, dtype=np.float32, premultiplied=True)
+    assert want[..., 3].max() > 0.1
+    assert np.abs(got - want).max() < 0.05 * LEVEL, np.abs(got - want).max() / LEVEL
+
+
 def test_no_client_is_a_clear_error():
     # In a fresh interpreter: this module's cluster is the default client here.
     import subprocess

@@ -147,7 +147,7 @@ def finish(partial: np.ndarray, kind: str, lut: np.ndarray, model: str) -> np.nd
 def _scene(renderer, volume) -> dict:
     """What a worker needs of ``renderer`` and ``volume``."""
     from . import bricks
-    from .renderer import _vec, device_limits
+    from .renderer import _value_map_for, _vec, device_limits
 
     renderer._ensure_tf()
     cfg = renderer._config_snapshot
@@ -164,7 +164,10 @@ def _scene(renderer, volume) -> dict:
         requested = _regular_chunks(volume.data)
     core = bricks.brick_shape_for(shape, ghost, device_limits()["max_texture_dimension_3d"], requested)
     return {
-        "width": renderer.width, "height": renderer.height, "lut": renderer._lut, "value_map": renderer._value_map,
+        "width": renderer.width, "height": renderer.height, "lut": renderer._lut,
+        # This volume's, whatever the renderer has loaded (often nothing): the
+        # transfer functions' value range, else the volume's own.
+        "value_map": _value_map_for(renderer._tf_value_range or volume.value_range, volume.data.dtype),
         "clip": renderer._crop, "skip_empty": renderer.empty_space_skipping, "dims": shape, "bounds": bounds,
         "core": core, "ghost": ghost, "precision": renderer._precision, "camera": renderer._frame_camera(),
         "light": renderer._light_args, "config": cfg,
