@@ -145,3 +145,41 @@ def test_raw_damaged(tmp_path):
     info.unlink()
     with pytest.raises(FileNotFoundError):
         load_raw(tmp_path / "v.raw")
+
+
+def test_nifti_that_lies(tmp_path):
+    """NIfTI headers that disagree with their file: a clear FileFormatError
+    naming the file, before the data is read (nibabel would read the header
+    as voxels, allocate what the header claims, or raise its own errors)."""
+    import struct
+
+    nib = pytest.importorskip("nibabel")
+    from pyvr.dataloaders import load_nifti
+
+    data = np.random.RandomState(0).rand(8, 9, 10).astype(np.float32)
+    good = tmp_path / "good.nii"
+    nib.save(nib.Nifti1Image(data, np.diag([1.0, 2.0, 3.0, 1.0])), good)
+    raw = good.read_bytes()
+    assert load_nifti(good).data.shape == (8, 9, 10)
+
+    def variant(name, blob):
+        (tmp_path / name).write_bytes(blob)
+        return tmp_path / name
+
+    at_zero = bytearray(raw)
+    struct.pack_into("<f", at_zero, 108, 0.0)  # vox_offset
+    singular = bytearray(raw)
+    struct.pack_into("<hh", singular, 252, 0, 1)  # qform_code 0, sform_code 1 ...
+    struct.pack_into("<12f", singular, 280, *([0.0] * 12))  # ... with an all-zero sform
+    gz = tmp_path / "whole.nii.gz"
+    nib.save(nib.Nifti1Image(data, np.eye(4)), gz)
+    cases = [
+        (variant("short.nii", raw[:2000]), r"the header declares 3232 bytes \(from offset 352\), the file holds 2000"),
+        (variant("at_zero.nii", bytes(at_zero)), "vox_offset 0 lies inside the 348-byte header"),
+        (variant("singular.nii", bytes(singular)), "the affine .* must be finite and invertible"),
+        (variant("half.nii.gz", gz.read_bytes()[:300]), "cannot read the data|not a readable NIfTI file"),
+    ]
+    for path, message in cases:
+        with pytest.raises(FileFormatError, match=message) as e:
+            load_nifti(path)
+        assert str(path) in str(e.value)

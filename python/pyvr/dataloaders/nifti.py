@@ -10,6 +10,24 @@ from .._numbers import check_count
 from .image import FileFormatError, GridImage, check_shape, check_spacing
 
 
+def _check_layout(path, img) -> None:
+    """The data where the header says, checked before it is read: in a
+    single file it starts after the header, and an uncompressed file holds
+    all of it (a header that lies about its size is an error, not an
+    allocation)."""
+    header = img.header
+    offset = int(getattr(img.dataobj, "offset", 0))
+    single = bytes(header["magic"]).rstrip(b"\x00") in (b"n+1", b"n+2")
+    if single and offset < int(header["sizeof_hdr"]):
+        raise FileFormatError(f"{path}: vox_offset {offset} lies inside the {int(header['sizeof_hdr'])}-byte header")
+    if not str(path).lower().endswith(".gz"):
+        need = offset + int(np.prod(img.shape, dtype=object)) * header.get_data_dtype().itemsize
+        size = Path(path).stat().st_size
+        if single and size < need:
+            raise FileFormatError(f"{path}: the header declares {need} bytes (from offset {offset}), "
+                                  f"the file holds {size}")
+
+
 def load_nifti(path, *, index: Optional[int] = None) -> GridImage:
     """Reads a NIfTI image reoriented to RAS+ (nibabel's closest canonical
     orientation): axis 0 increases towards the patient's right, axis 1
@@ -26,6 +44,7 @@ def load_nifti(path, *, index: Optional[int] = None) -> GridImage:
         raise
     except Exception as e:  # nibabel raises several types for damaged headers
         raise FileFormatError(f"{path}: not a readable NIfTI file ({type(e).__name__}: {e})") from None
+    _check_layout(path, img)
     shape = img.shape
     if len(shape) == 4:
         if index is None:
@@ -36,9 +55,17 @@ def load_nifti(path, *, index: Optional[int] = None) -> GridImage:
         img = img.slicer[..., index]
     elif len(shape) != 3:
         raise FileFormatError(f"{path}: a {len(shape)}-D image; a volume needs 3 dimensions")
-    img = nib.as_closest_canonical(img)
+    affine = np.asarray(img.affine, np.float64)
+    if not (np.all(np.isfinite(affine)) and abs(np.linalg.det(affine[:3, :3])) > 0):
+        raise FileFormatError(f"{path}: the affine (voxel to world) must be finite and invertible, got {affine[:3].tolist()}")
     check_shape(path, img.shape, img.get_data_dtype())
-    data = np.asanyarray(img.dataobj)
+    try:
+        img = nib.as_closest_canonical(img)
+        data = np.asanyarray(img.dataobj)
+    except (OSError, MemoryError):
+        raise
+    except Exception as e:  # a truncated .gz (EOFError), an orientation nibabel cannot read, ...
+        raise FileFormatError(f"{path}: cannot read the data ({type(e).__name__}: {e})") from None
     affine = img.affine
     spacing = check_spacing(path, np.sqrt((affine[:3, :3] ** 2).sum(axis=0)))
     units = img.header.get_xyzt_units()[0]
