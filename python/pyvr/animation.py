@@ -53,8 +53,9 @@ def save_animation(frames: Iterable[np.ndarray], path: Union[str, os.PathLike], 
     """Write ``frames`` (uint8 arrays, top row first, all one size: what
     ``VolumeRenderer.render_path`` yields) to ``path``, a ``.gif`` or
     ``.mp4`` file. Transparent pixels are composited over ``background``
-    (RGB in [0, 1]). ``loop``: GIF repeat count (0 = forever).
-    ``quality``: MP4 quality from 0 to 10. Returns the number of frames
+    (RGB in [0, 1]). ``fps``: from about 0.0015 (a GIF frame lasts at
+    most 655.35 s) to 1000. ``loop``: GIF repeat count (0 = forever, at
+    most 65535). ``quality``: MP4 quality from 0 to 10. Returns the number of frames
     written. The file is written under a temporary name and renamed when
     complete, so an interrupted save (Ctrl-C) leaves no partial file.
     """
