@@ -15,6 +15,7 @@ files it should not:
 """
 
 import bz2
+import re
 import zlib
 from pathlib import Path
 
@@ -96,7 +97,8 @@ def _read_data(path, header, data_start, dims, dtype, data_outside_folder) -> np
 
 def _data_file(path, name, data_outside_folder) -> Path:
     """The detached data file, confined to the header's folder."""
-    if not isinstance(name, str) or name.strip().upper().startswith("LIST") or "%" in name:
+    # The format's two multi-file forms: "LIST [dim]" and "<printf pattern> <min> <max> <step> [dim]".
+    if not isinstance(name, str) or re.fullmatch(r"LIST(\s+\d+)?|\S*%\S*(\s+-?\d+){3,4}", name.strip()):
         raise FileFormatError(f"{path}: data file {name!r}: only a single data file is supported")
     folder = Path(path).resolve().parent
     file = (folder / name).resolve()  # an absolute name stays absolute
