@@ -71,13 +71,17 @@ class FramePipeline:
             self._later("pending", max(1, int(self._min_render_interval * 1000)), self._render_pending)
 
     def _follow_camera_with_light(self) -> None:
+        """Move a camera-linked light with the controller's camera (pyvr's
+        renderer does so itself in set_camera); a camera that cannot be
+        read unlinks the light. A moved camera already asks for a frame."""
         light = self.renderer.get_light()
         if not light.is_linked:
             return
         try:
-            light.update_from_camera(self.camera_controller.params)
-            self.renderer.set_light(light)
-            self.state.needs_render = True
+            camera = self.camera_controller.params
+            if not self._native:
+                light.update_from_camera(camera)
+                self.renderer.set_light(light)
         except Exception as e:
             print(f"Warning: Failed to update linked light: {e}")
             light.unlink_from_camera()  # one failure, not one per frame
