@@ -20,10 +20,10 @@ def _check_layout(path, img) -> None:
     single = bytes(header["magic"]).rstrip(b"\x00") in (b"n+1", b"n+2")
     if single and offset < int(header["sizeof_hdr"]):
         raise FileFormatError(f"{path}: vox_offset {offset} lies inside the {int(header['sizeof_hdr'])}-byte header")
-    if not str(path).lower().endswith(".gz"):
+    if single and str(path).lower().endswith(".nii"):  # uncompressed: its length says how much data it holds
         need = offset + int(np.prod(img.shape, dtype=object)) * header.get_data_dtype().itemsize
         size = Path(path).stat().st_size
-        if single and size < need:
+        if size < need:
             raise FileFormatError(f"{path}: the header declares {need} bytes (from offset {offset}), "
                                   f"the file holds {size}")
 
@@ -57,7 +57,8 @@ def load_nifti(path, *, index: Optional[int] = None) -> GridImage:
         raise FileFormatError(f"{path}: a {len(shape)}-D image; a volume needs 3 dimensions")
     affine = np.asarray(img.affine, np.float64)
     if not (np.all(np.isfinite(affine)) and abs(np.linalg.det(affine[:3, :3])) > 0):
-        raise FileFormatError(f"{path}: the affine (voxel to world) must be finite and invertible, got {affine[:3].tolist()}")
+        raise FileFormatError(f"{path}: the affine (voxel to world) must be finite and invertible, "
+                              f"got {affine[:3].tolist()}")
     check_shape(path, img.shape, img.get_data_dtype())
     try:
         img = nib.as_closest_canonical(img)

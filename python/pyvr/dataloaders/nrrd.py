@@ -71,7 +71,8 @@ def _read_data(path, header, data_start, dims, dtype, data_outside_folder) -> np
         raise FileFormatError(f"{path}: byte skip must be at least 0 (or -1 for raw data), got {byte_skip}")
     source = header.get("data file", header.get("datafile"))
     file, start = (_data_file(path, source, data_outside_folder), 0) if source is not None else (Path(path), data_start)
-    declared = int(np.prod(dims)) * dtype.itemsize
+    count = int(np.prod(dims))
+    declared = count * dtype.itemsize
     with open(file, "rb") as fh:
         size = fh.seek(0, 2)
         fh.seek(start)
@@ -82,7 +83,7 @@ def _read_data(path, header, data_start, dims, dtype, data_outside_folder) -> np
             raw = _raw(path, fh, size, byte_skip, declared)
             values = np.frombuffer(raw, dtype)
         elif encoding in _TEXT:
-            words = fh.read().split()[: int(np.prod(dims)) + 1]  # no more text than the file holds
+            words = fh.read().split()[: count + 1]  # no more text than the file holds
             try:
                 values = np.array(words, dtype=np.float64).astype(dtype)
             except ValueError as e:
@@ -90,8 +91,8 @@ def _read_data(path, header, data_start, dims, dtype, data_outside_folder) -> np
         else:
             raw = _inflate(path, fh, _COMPRESSED[encoding], byte_skip, declared)
             values = np.frombuffer(raw, dtype)
-    if values.size != int(np.prod(dims)):
-        raise FileFormatError(f"{path}: the data holds {values.size} values, the header declares {int(np.prod(dims))}")
+    if values.size != count:
+        raise FileFormatError(f"{path}: the data holds {values.size} values, the header declares {count}")
     return values.reshape(dims, order="F")
 
 
