@@ -3,7 +3,7 @@
 
 use glam::DVec3;
 use pyvr_core::config::RenderConfig;
-use pyvr_core::gpu::GpuRenderer;
+use pyvr_core::renderer::Renderer;
 use pyvr_core::scene::{Bounds, Camera, Light};
 use pyvr_core::volume::{VolumeView, Voxels};
 use std::time::Instant;
@@ -31,7 +31,7 @@ fn main() {
         let s = i as f32 / 255.0;
         [s, 0.5, 1.0 - s, 0.1 * s]
     }).collect();
-    let mut r = GpuRenderer::new(size, size).unwrap();
+    let mut r = Renderer::new(size, size).unwrap();
     r.set_volume(&vol).unwrap();
     r.set_lut(&lut).unwrap();
     let cam = Camera { position: DVec3::new(1.8371, 1.8371, 1.5), target: DVec3::ZERO, up: DVec3::Z, fov_y: std::f64::consts::FRAC_PI_4 };

@@ -13,7 +13,7 @@
 
 use glam::DVec3;
 use pyvr_core::config::RenderConfig;
-use pyvr_core::gpu::GpuRenderer;
+use pyvr_core::renderer::Renderer;
 use pyvr_core::scene::{Bounds, Camera, Light};
 use pyvr_core::volume::{Precision, VolumeView, Voxels};
 use std::time::Instant;
@@ -71,7 +71,7 @@ fn main() {
     let light = Light::default();
     let cfg = RenderConfig::default();
 
-    let mut gpu = GpuRenderer::new(size, size).expect("a device");
+    let mut gpu = Renderer::new(size, size).expect("a device");
     gpu.set_lut(&lut).expect("table");
     let device = gpu.context().describe();
     println!("{size}x{size}, {n}^3 double sphere with normals, balanced, {} threads; {device}",

@@ -1,4 +1,4 @@
-// The uniform block (src/gpu/params.rs mirrors it field for field; a test
+// The uniform block (src/plan/params.rs mirrors it field for field; a test
 // compares the two layouts) and the frame's resources, at the binding
 // indices the prelude takes from src/gpu/bindings.rs.
 
@@ -77,7 +77,7 @@ struct Params {
     tile_x: u32,
     tile_y: u32,
     // The value map's scale is value_prescale * value_scale, each normal in
-    // f32 where it can be (GPUs flush subnormals; src/gpu/params.rs split_scale).
+    // f32 where it can be (GPUs flush subnormals; src/plan/params.rs split_scale).
     value_prescale: f32,
     tile_pad: u32,
 };

@@ -102,6 +102,31 @@ impl Model {
     pub fn uses_light(self) -> bool {
         matches!(self, Model::EmissionAbsorption | Model::Emission | Model::SingleScattering | Model::Isosurface)
     }
+
+    /// Has unbiased frames (ratio tracking at Poisson points; single
+    /// scattering's shadow rays have none).
+    pub fn tracks(self) -> bool {
+        matches!(self, Model::EmissionAbsorption | Model::Absorption | Model::Emission)
+    }
+
+    /// Lit samples take their light from normals or the field's gradient
+    /// (single scattering's take it from shadow rays).
+    pub fn lit_by_normals(self) -> bool {
+        self.uses_light() && self != Model::SingleScattering
+    }
+
+    /// How the partial images of a volume's parts combine into the frame:
+    /// "max", "min", "average", "iso" (the nearest hit) or "integrate"
+    /// (front-to-back compositing of colour and optical depth).
+    pub fn reduction(self) -> &'static str {
+        match self {
+            Model::Mip => "max",
+            Model::MinIp => "min",
+            Model::Average => "average",
+            Model::Isosurface => "iso",
+            _ => "integrate",
+        }
+    }
 }
 
 /// Order in which segments are composited; the two are equal up to rounding

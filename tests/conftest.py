@@ -13,6 +13,22 @@ os.environ.setdefault("PYVR_BACKEND", "vulkan")
 SHARED_DATA = os.path.join(os.path.dirname(__file__), "..", "..", "shared", "data")
 
 
+def pytest_collection_modifyitems(config, items):
+    """Tests marked ``shader`` test the shader engine itself (its passes,
+    texture sampling, table uploads, or the native engine against it). With
+    no GPU adapter (not even lavapipe) there is no shader engine: the native
+    engine renders every frame, and those tests cannot run."""
+    from pyvr.renderer import device_limits
+
+    if device_limits()["gpu_adapter"]:
+        return
+    skip = pytest.mark.skip(reason="tests the shader engine, which needs a GPU adapter (none opened here: "
+                                   "the native engine renders every frame)")
+    for item in items:
+        if item.get_closest_marker("shader"):
+            item.add_marker(skip)
+
+
 @pytest.fixture(autouse=True)
 def _exact_filtering_on_gpus(request, monkeypatch):
     """Tests compare frames with the float64 integrator at tolerances finer

@@ -4,7 +4,7 @@
 
 use glam::DVec3;
 use pyvr_core::config::RenderConfig;
-use pyvr_core::gpu::GpuRenderer;
+use pyvr_core::renderer::Renderer;
 use pyvr_core::model::{Model, Order};
 use pyvr_core::scene::{Bounds, Camera, Light};
 use pyvr_core::volume::{Precision, VolumeView, Voxels};
@@ -52,10 +52,10 @@ fn bricked_frames_equal_the_whole_volume() {
     let whole = VolumeView::new(d, Voxels::F32(&data), None, bounds).unwrap();
     let table = lut();
     let light = Light::default();
-    let mut one = GpuRenderer::new(48, 40).unwrap();
+    let mut one = Renderer::new(48, 40).unwrap();
     one.set_volume(&whole).unwrap();
     one.set_lut(&table).unwrap();
-    let mut bricked = GpuRenderer::new(48, 40).unwrap();
+    let mut bricked = Renderer::new(48, 40).unwrap();
     bricked.set_lut(&table).unwrap();
     let cameras = [
         Camera { position: DVec3::new(2.5, 1.5, 1.0), target: DVec3::ZERO, up: DVec3::Z, fov_y: 0.8 },

@@ -5,7 +5,7 @@
 
 use glam::DVec3;
 use pyvr_core::config::RenderConfig;
-use pyvr_core::gpu::GpuRenderer;
+use pyvr_core::renderer::Renderer;
 use pyvr_core::scene::{Bounds, Camera, Light};
 use pyvr_core::transfer::ValueMap;
 use pyvr_core::volume::{VolumeView, Voxels};
@@ -52,13 +52,13 @@ fn kept_grids_go_with_the_volume_and_the_value_map() {
     let pre = RenderConfig { pre_integrated: true, ..plain };
     let lifted = ValueMap { scale: 1.0, offset: 0.45 };
     let fresh = |d: &[f32], map: ValueMap, cfg: &RenderConfig| {
-        let mut f = GpuRenderer::new(32, 32).unwrap();
+        let mut f = Renderer::new(32, 32).unwrap();
         f.set_volume(&view(d, bounds)).unwrap();
         f.set_lut(&lut()).unwrap();
         f.set_value_map(map).unwrap();
         f.render(&cam, &light, cfg).unwrap().0
     };
-    let mut r = GpuRenderer::new(32, 32).unwrap();
+    let mut r = Renderer::new(32, 32).unwrap();
     r.set_volume(&view(&a, bounds)).unwrap();
     r.set_lut(&lut()).unwrap();
     for cfg in [plain, pre, plain] {

@@ -68,7 +68,15 @@ CONFIGS = {
 }
 # Where the only adapter is a CPU the native march renders bricked frames
 # too: both renderers of a comparison run on one engine.
-CASES = [(engine, name) for engine in ("shader", "native") for name in sorted(CONFIGS)]
+def engine_of(native):
+    """The engine a renderer with ``native_march`` = ``native`` renders on:
+    the native march where it may and runs, or where no adapter opened."""
+    limits = device_limits()
+    return "native" if (native and limits["native_march"]) or not limits["gpu_adapter"] else "gpu"
+
+
+CASES = [pytest.param(engine, name, marks=[pytest.mark.shader] if engine == "shader" else [])
+         for engine in ("shader", "native") for name in sorted(CONFIGS)]
 
 
 def loaded_pair(native):
@@ -102,7 +110,7 @@ def test_bricked_frame_equals_single_texture(request, engine, name):
     # a segment marched twice or skipped, or a ray marched on after it
     # stopped, costs whole levels.
     whole, bricked = request.getfixturevalue("native_pair" if engine == "native" else "pair")
-    runs = "native" if engine == "native" and device_limits()["native_march"] else "gpu"
+    runs = engine_of(engine == "native")
     cfg = config(**CONFIGS[name])
     # Refined frames pick the segments they refine from each brick's own
     # slopes, which moves pixels of alpha ~1e-3 by 0.02 level: their
@@ -131,13 +139,13 @@ def test_bricked_frame_equals_single_texture(request, engine, name):
             assert np.abs(da[hit] - db[hit]).max(initial=0.0) < 1e-4
 
 
-@pytest.mark.parametrize("engine", ["shader", "native"])
+@pytest.mark.parametrize("engine", [pytest.param("shader", marks=pytest.mark.shader), "native"])
 def test_bricked_unbiased_frames_with_cell_rates_have_the_same_mean(request, engine):
     # At a step of 0.05 the table's largest extinction tops a point a step,
     # so each segment takes its cell's rate: a brick's cells are its own,
     # the points differ from the single texture's, and only the means agree.
     whole, bricked = request.getfixturevalue("native_pair" if engine == "native" else "pair")
-    runs = "native" if engine == "native" and device_limits()["native_march"] else "gpu"
+    runs = engine_of(engine == "native")
     cam = Camera.from_spherical(np.zeros(3), 0.7, 0.4, 0.0, 3.0)
     stacks = []
     for r in (whole, bricked):
@@ -264,7 +272,7 @@ def test_stored_formats_and_normals_brick_like_one_texture(kind, native, tmp_pat
     for r in (renderer(native), renderer(native, brick_shape=(12, 10, 9))):
         r.load_volume(vol, precision=precision)
         images.append(r.render(dtype=np.float32, premultiplied=True))
-        assert r.last_frame_stats["engine"] == ("native" if native and device_limits()["native_march"] else "gpu")
+        assert r.last_frame_stats["engine"] == engine_of(native)
     assert images[0][..., 3].max() > 0.2
     assert np.abs(images[0] - images[1]).max() < TOL
     if "normals" in kind:
@@ -374,7 +382,7 @@ def test_rays_stopped_in_one_brick_stay_stopped(native):
         r.set_config(cfg)
         r.set_transfer_functions(ColorTransferFunction.from_colormap("viridis"), OpacityTransferFunction.linear(0.0, 1.0))
     a, b = whole.render(dtype=np.float32, premultiplied=True), bricked.render(dtype=np.float32, premultiplied=True)
-    assert bricked.last_frame_stats["engine"] == ("native" if native and device_limits()["native_march"] else "gpu")
+    assert bricked.last_frame_stats["engine"] == engine_of(native)
     stopped = (a[..., 3] >= 0.2) & (a[..., 3] < 0.5)
     assert stopped.sum() > 100, stopped.sum()
     assert np.abs(a - b).max() < TOL, np.abs(a - b).max() / LEVEL
@@ -402,13 +410,14 @@ def test_isosurface_at_the_box_faces_in_bricks(where, native):
         r.set_config(cfg)
     a, b = whole.render(dtype=np.float32, premultiplied=True), bricked.render(dtype=np.float32, premultiplied=True)
     da, db = whole.depth(), bricked.depth()
-    assert bricked.last_frame_stats["engine"] == ("native" if native and device_limits()["native_march"] else "gpu")
+    assert bricked.last_frame_stats["engine"] == engine_of(native)
     hit = np.isfinite(da)
     assert hit.mean() > 0.25 and np.array_equal(hit, np.isfinite(db)) and np.abs(da[hit] - db[hit]).max() < 1e-4
     assert np.abs(a - b).max() < TOL, np.abs(a - b).max() / LEVEL
     assert abs(da[28, 32] - (2.0 if where == "entry" else 4.0)) < 0.05, da[28, 32]
 
 
+@pytest.mark.shader
 def test_bricks_loaded_with_the_native_march_off_stay_on_the_shader():
     # Resident bricks loaded while the native march was off keep no texels
     # for it (the shader's textures alone): turning it on later renders

@@ -49,6 +49,7 @@ def levels(a, b):
 @pytest.mark.texture_units
 @pytest.mark.parametrize("kind", ["helix step", "torus peaks with normals"])
 @pytest.mark.parametrize("pre", [False, True], ids=["midpoint", "pre-integrated"])
+@pytest.mark.shader
 def test_exact_filtering_matches_the_f64_integrator_and_the_sampler(kind, pre):
     # Measured against the f64 integrator on lavapipe: 0.003 and 0.03 level
     # midpoint; 0.12 and 0.46 pre-integrated, the same as the sampler's

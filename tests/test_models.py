@@ -433,6 +433,7 @@ def test_model_config_fields_validate_and_round_trip():
     assert RenderConfig(0.02, 100, False, 0.9).model == "emission_absorption"
 
 
+@pytest.mark.shader
 def test_isosurface_skipping_and_multi_pass_keep_every_hit():
     # A small sphere in a large box: most cells stay below the iso value.
     # At step 1e-4 rays need up to 34642 steps: three dispatches, with the

@@ -27,8 +27,9 @@ from pyvr.renderer import device_limits
 from pyvr.transferfunctions import ColorTransferFunction, OpacityTransferFunction
 from pyvr.volume import Volume
 
-pytestmark = pytest.mark.skipif(not device_limits()["native_march"],
-                                reason="the native march runs only where the adapter is a CPU with AVX2, FMA and F16C")
+pytestmark = [pytest.mark.skipif(not device_limits()["native_march"],
+                                 reason="the native march runs only on x86-64 CPUs with AVX2, FMA and F16C"),
+              pytest.mark.shader]
 
 LEVEL = 1 / 255
 BOX = (np.array([-1.0, -0.8, -0.6], np.float32), np.array([1.0, 0.8, 0.6], np.float32))

@@ -179,6 +179,7 @@ def test_largest_image_and_one_past_it():
     assert r.render().shape == (8, side, 4)
 
 
+@pytest.mark.shader
 def test_long_rays_are_marched_in_several_passes():
     # 1e5 steps per ray: more than one dispatch's 16384 steps and more than
     # lavapipe's 65535-iteration loop cap; the passes must join seamlessly.

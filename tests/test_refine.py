@@ -73,7 +73,7 @@ def test_refined_frames_match_the_f64_integrator(lit, order, h):
 
 
 @pytest.mark.parametrize("lut_size", [1024, 4096])
-@pytest.mark.parametrize("native", [False, pytest.param(True, marks=NATIVE)])
+@pytest.mark.parametrize("native", [pytest.param(False, marks=pytest.mark.shader), pytest.param(True, marks=NATIVE)])
 def test_refined_frames_of_a_long_transfer_function_match_the_f64_integrator(lut_size, native):
     # Longer than the table's 512 entries, the running opacity sums the rule
     # reads, and the transfer function shorter segments read, are wrapped

@@ -160,6 +160,7 @@ def test_leaps_cross_whole_empty_cubes():
     assert n_skip < 0.08 * n_plain
 
 
+@pytest.mark.shader
 def test_skipping_with_multi_pass_rays_and_truncation():
     cfg = RenderConfig(step_size=2e-5, max_steps=40_000, early_ray_termination=False)
     vol = Volume(create_sample_volume(32, "helix"))
@@ -220,6 +221,7 @@ def test_grids_kept_for_alternating_frames_follow_every_change():
     check(shifted, otf, (0.0, 0.6))
 
 
+@pytest.mark.shader
 def test_preintegration_tables_kept_for_other_steps_follow_the_table():
     # Pre-integrated frames at another step need another table; the
     # renderer keeps the last few, so a session switching steps (a coarse

@@ -137,6 +137,7 @@ def test_cost_follows_the_extinction_where_rays_are(form):
     assert_unbiased(frames(r, cfg.replace(unbiased=True), 128), exact(r, opacity_correction=form), 1000)
 
 
+@pytest.mark.shader
 def test_leaps_and_passes_see_the_same_points():
     # A sparse scene: skipping leaps over most cells, and a small step splits
     # rays into passes; neither may change which points a frame composites.

@@ -62,7 +62,9 @@ def _worker_renderer(width: int, height: int):
 
 
 def _kind(cfg) -> str:
-    return {"mip": "max", "minip": "min", "average": "average", "isosurface": "iso"}.get(cfg.model, "integrate")
+    from .renderer import MODEL_ABILITIES
+
+    return MODEL_ABILITIES[cfg.model]["reduction"]
 
 
 def _render_brick(spec: dict, index: int, block, normals) -> np.ndarray:

@@ -395,9 +395,11 @@ def _check_volume_fits(volume: Volume, precision: str) -> None:
     from ._memory import check_fits
 
     # A converted copy, then packing and the driver's staging copy of what
-    # the device stores (textures of values and of normals).
+    # the device stores (textures of values and of normals); float16's
+    # empty-cell grid is built from a float32 copy of the rounded values.
     stored_bytes = voxels * total
-    check_fits(f"loading volume {shape}", copy + 2 * stored_bytes, "downsample or crop the volume")
+    rounded = voxels * 4 if precision == "float16" else 0
+    check_fits(f"loading volume {shape}", copy + 2 * stored_bytes + rounded, "downsample or crop the volume")
 
 
 #: Samples a frame may take before a warning says it will be slow: about a
@@ -405,10 +407,12 @@ def _check_volume_fits(volume: Volume, precision: str) -> None:
 LONG_FRAME_SAMPLES = 5e9
 #: The same for the float64 integrator (one CPU core does about 1e7 per second).
 LONG_FLOAT64_SAMPLES = 5e8
+#: Each optical model's abilities, as the core declares them.
+MODEL_ABILITIES = _core.model_abilities()
 #: Models with unbiased frames (RenderConfig.unbiased), which accumulate uses.
-UNBIASED_MODELS = ("emission_absorption", "absorption", "emission")
+UNBIASED_MODELS = tuple(m for m, a in MODEL_ABILITIES.items() if a["unbiased"])
 # Models whose samples are lit from the data's gradient when no normals are given.
-GRADIENT_SHADED_MODELS = ("emission_absorption", "emission", "isosurface")
+GRADIENT_SHADED_MODELS = tuple(m for m, a in MODEL_ABILITIES.items() if a["lit_by_normals"])
 
 
 def _value_map_for(value_range, dtype) -> tuple:
@@ -912,7 +916,13 @@ class VolumeRenderer:
         says which ran ("native" or "gpu"). It keeps a volume's texels in
         memory itself (each brick's too), and the shader's texture is made
         from them only when a frame first runs on the shader (docs/speed.md,
-        "The native march")."""
+        "The native march").
+
+        Where no GPU adapter opens at all (no Vulkan driver, or
+        ``PYVR_ENGINE=native``), the native engine is the only one: it
+        renders every frame whatever this says
+        (``pyvr.renderer.device_limits()["gpu_adapter"]`` is False;
+        docs/ARCHITECTURE.md, "Engines at run time")."""
         return self._engine.native_march
 
     @native_march.setter

@@ -3,7 +3,7 @@
 //! until every lane's ray is done.
 
 use super::{Frame, Model, Stats, CHAIN, TILE};
-use crate::gpu::params::Params;
+use crate::plan::params::Params;
 use std::arch::x86_64::*;
 use std::sync::atomic::{AtomicBool, Ordering};
 

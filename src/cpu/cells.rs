@@ -4,7 +4,7 @@
 //! the unbiased walk leap by this one rule.
 
 use super::CELL;
-use crate::gpu::params::Params;
+use crate::plan::params::Params;
 use std::arch::x86_64::*;
 
 /// A point's cell: the point in voxel coordinates shifted by the texture's

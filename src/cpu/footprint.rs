@@ -7,7 +7,7 @@
 //! nothing. The tiles outside this rectangle are written transparent
 //! without building their rays, as the rays would leave them.
 
-use crate::gpu::params::Params;
+use crate::plan::params::Params;
 
 /// Pixel columns `cols.0..cols.1` and rows `rows.0..rows.1` (row 0 at the
 /// bottom, as the march counts them) hold every pixel whose ray meets the box.

@@ -12,7 +12,7 @@ use super::avx2::{
     Texels,
 };
 use super::{Frame, Stats, TILE};
-use crate::gpu::shader::ISO_BISECTIONS;
+use crate::plan::ISO_BISECTIONS;
 use std::arch::x86_64::*;
 use std::sync::atomic::{AtomicBool, Ordering};
 

@@ -41,7 +41,7 @@ mod rays8;
 #[cfg(target_arch = "x86_64")]
 mod tracking;
 
-use crate::gpu::params::Params;
+use crate::plan::Params;
 use crate::occupancy::BLOCK;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
@@ -172,7 +172,7 @@ impl CpuVolume {
     }
 }
 
-/// The pre-integration texture's texels (`gpu::resources::with_lut_row`):
+/// The pre-integration texture's texels (`renderer::resources::with_lut_row`):
 /// `side` rows of the (front, back) table, each `side` entries (optical
 /// depth in alpha, emitted colour), then `rows` rows as wide of the
 /// running opacity sums and twice as many of the transfer function,
@@ -184,33 +184,9 @@ pub struct PreintTable {
     pub rows: usize,
 }
 
-/// The optical models the native march runs (compositing.wgsl).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Model {
-    EmissionAbsorption,
-    /// Optical depth alone: no colour.
-    Absorption,
-    /// Colour alone, added along the ray; alpha 0.
-    Emission,
-    /// The transfer function's colour of the largest value along the ray.
-    Mip,
-    /// Of the smallest.
-    MinIp,
-    /// Of the mean, weighted by length.
-    Average,
-    /// The first point at or above the iso value, shaded (`isosurface`).
-    Isosurface,
-    /// Emission–absorption lit by the light a shadow ray lets through
-    /// (with `Frame::scatter`).
-    SingleScattering,
-}
-
-impl Model {
-    /// A projection of the values (`projection`), not an integral.
-    pub fn projects(self) -> bool {
-        matches!(self, Model::Mip | Model::MinIp | Model::Average)
-    }
-}
+/// The optical models: the core's own (`crate::model`), which the march
+/// runs all of (compositing.wgsl's rules).
+pub use crate::model::Model;
 
 /// One frame of the native march.
 pub struct Frame<'a> {
@@ -616,7 +592,7 @@ fn on_every_core(
 /// Sets flush-to-zero on this thread (a worker's own): a result that would
 /// be subnormal is 0, so the march never makes one, and each operation
 /// making or reading one would take a microcode assist of ~100 cycles
-/// (`gpu::resources::cpu_copy` flushes the texels' own: with neither, the
+/// (`renderer::resources::cpu_copy` flushes the texels' own: with neither, the
 /// sparse helix's lit frames ran 2.4x slower). Inputs are read as they are
 /// (no denormals-are-zero): a value map or step can be subnormal in an
 /// extreme scene (a value range of 3e38, a box 6e37 across) and must not
@@ -823,7 +799,7 @@ pub(crate) const CHAIN: usize = 4;
 #[cfg(test)]
 pub(crate) mod test_rays {
     use super::{CpuVolume, Frame, Model};
-    use crate::gpu::params::Params;
+    use crate::plan::Params;
 
     /// A number in [lo, hi) from a counter.
     pub fn pick(k: &mut u32, lo: f32, hi: f32) -> f32 {

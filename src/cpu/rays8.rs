@@ -137,7 +137,7 @@ pub unsafe fn rays(frame: &Frame, col0: u32, row: u32) -> Rays {
 /// entry `t0` and exit `t1`; (0, 0) where there are none.
 #[inline]
 #[target_feature(enable = "avx2,fma,f16c")]
-fn brick_window(p: &crate::gpu::params::Params, d: &[__m256; 3], t0: __m256, t1: __m256, shift: __m256, n: __m256i) -> (__m256i, __m256i) {
+fn brick_window(p: &crate::plan::params::Params, d: &[__m256; 3], t0: __m256, t1: __m256, shift: __m256, n: __m256i) -> (__m256i, __m256i) {
     let set = _mm256_set1_ps;
     let zero = _mm256_setzero_ps();
     let (mut a0, mut a1, mut outside) = (t0, t1, zero);
@@ -228,7 +228,7 @@ mod tests {
     use super::*;
     use crate::cpu::test_rays::pick;
     use crate::cpu::{CpuVolume, Ray, Texels};
-    use crate::gpu::params::Params;
+    use crate::plan::params::Params;
 
     /// Every lane equals the scalar rule's ray bit for bit, over cameras
     /// outside, inside and grazing the box, an axis-aligned one whose middle

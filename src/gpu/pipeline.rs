@@ -109,7 +109,7 @@ impl Variant {
             jitter: cfg.jitter,
             pre_integrated: cfg.pre_integrates(),
             refine: if cfg.pre_integrates() { cfg.refine.clamp(0, u32::MAX as i64) as u32 } else { 0 },
-            unbiased: cfg.unbiased && model.integrates() && model != Model::SingleScattering,
+            unbiased: cfg.unbiased && model.tracks(),
             cell_rates: false,
             uniform_cells: false,
             exact_tables: cfg.exact_filtering,

@@ -4,18 +4,13 @@
 //! declaration order, and no preprocessor is involved).
 
 use super::bindings;
-use super::resources::PROJECTION_REACH;
+use crate::plan::{ISO_BISECTIONS, PROJECTION_REACH};
 use crate::integrate::SHADOW_TAU_MAX;
 use crate::model::Model;
 use crate::occupancy::{BLOCK, UNIFORM_FLAG};
 use crate::preintegrate;
 use crate::scene::Shading;
 use std::fmt::Write;
-
-/// Bisection steps that place an isosurface hit between two samples (to
-/// 1/256 of their distance, then a secant step). The oracle bisects to
-/// convergence instead, so tests see this rule's error.
-pub const ISO_BISECTIONS: u32 = 8;
 
 /// The shader's files, in the order they are joined.
 pub const FILES: [(&str, &str); 11] = [
@@ -92,5 +87,23 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn wgsl_block_has_the_rust_layout() {
+        let module = naga::front::wgsl::parse_str(&source()).expect("the shader parses");
+        let ty = module
+            .types
+            .iter()
+            .find(|(_, t)| t.name.as_deref() == Some("Params"))
+            .map(|(_, t)| t)
+            .expect("the shader declares Params");
+        let naga::TypeInner::Struct { members, span } = &ty.inner else {
+            panic!("Params is not a struct");
+        };
+        let wgsl: Vec<(&str, usize)> =
+            members.iter().map(|m| (m.name.as_deref().unwrap_or(""), m.offset as usize)).collect();
+        assert_eq!(wgsl, crate::plan::Params::FIELDS.to_vec());
+        assert_eq!(*span as usize, std::mem::size_of::<crate::plan::Params>());
     }
 }

@@ -8,7 +8,7 @@ use crate::error::{try_collect, try_zeroed};
 use crate::output::{Format, Image, Pixels};
 use super::args::integer;
 use super::errors::{guarded, run_released, to_py, to_py_in};
-use crate::gpu::GpuRenderer;
+use crate::renderer::Renderer;
 use crate::integrate::{self, Frame};
 use crate::scene::{Bounds, Camera, Light, LightKind};
 use crate::transfer::ValueMap;
@@ -138,7 +138,7 @@ fn lut_rows(lut: &PyReadonlyArray2<'_, f32>) -> PyResult<Vec<[f32; 4]>> {
     Ok(flat.chunks_exact(4).map(|c| [c[0], c[1], c[2], c[3]]).collect())
 }
 
-fn stats_dict<'py>(py: Python<'py>, stats: &crate::gpu::FrameStats) -> PyResult<Bound<'py, PyDict>> {
+fn stats_dict<'py>(py: Python<'py>, stats: &crate::renderer::FrameStats) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
     d.set_item("truncated_needed", stats.truncated_needed)?;
     d.set_item("uploaded_bytes", stats.uploaded_bytes)?;
@@ -151,7 +151,7 @@ fn stats_dict<'py>(py: Python<'py>, stats: &crate::gpu::FrameStats) -> PyResult<
 #[pyclass(name = "Renderer", module = "pyvr._core")]
 pub struct PyRenderer {
     /// Dropped only in the process that made it (see Drop).
-    inner: std::mem::ManuallyDrop<GpuRenderer>,
+    inner: std::mem::ManuallyDrop<Renderer>,
 }
 
 impl Drop for PyRenderer {
@@ -176,7 +176,7 @@ impl PyRenderer {
     #[new]
     fn new(py: Python<'_>, width: &Bound<'_, PyAny>, height: &Bound<'_, PyAny>) -> PyResult<Self> {
         let (width, height) = (side("width", width)?, side("height", height)?);
-        let inner = run_released(py, |_| GpuRenderer::new(width, height))?;
+        let inner = run_released(py, |_| Renderer::new(width, height))?;
         Ok(PyRenderer { inner: std::mem::ManuallyDrop::new(inner) })
     }
 
@@ -458,7 +458,7 @@ impl PyRenderer {
 
     #[getter]
     fn device(&self) -> String {
-        self.inner.context().describe()
+        self.inner.device().describe()
     }
 }
 

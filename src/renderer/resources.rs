@@ -3,13 +3,15 @@
 //! table, and the buffers a frame writes. Each is rebuilt only when its
 //! input changes.
 
-use super::context::GpuContext;
+use super::device::Device;
+use crate::gpu::context::GpuContext;
 use crate::error::Error;
-use super::half::{f16_to_f32, f32_to_f16};
+use crate::half::{f16_to_f32, f32_to_f16};
 use crate::config::OpacityCorrection;
 use crate::cpu::{CellBounds, CpuVolume, Texels};
 use crate::occupancy::{empty_radius, occupied_bounds, MinMaxGrid, SegmentRanges, UNIFORM_FLAG};
 use crate::gradients;
+use crate::plan::PROJECTION_REACH;
 use crate::preintegrate;
 use crate::scene::Bounds;
 use crate::error::{try_collect, try_vec};
@@ -72,14 +74,14 @@ pub enum CpuCopy {
 /// the shader): with a frame on the shader they double what the volume
 /// takes, and a process over its memory is killed, not told.
 fn cpu_copy(
-    ctx: &GpuContext,
+    dev: &Device,
     native: CpuCopy,
     format: wgpu::TextureFormat,
     dims: [usize; 3],
     bytes: &[u8],
     normals: &mut Option<Vec<[i8; 4]>>,
 ) -> Option<CpuVolume> {
-    if !marches_natively(ctx, native) {
+    if !marches_natively(dev, native) {
         return None;
     }
     // (The normals were made for the texture: keeping them adds no peak.)
@@ -122,8 +124,8 @@ fn cpu_copy(
 
 /// Whether the native march keeps its own texels of a volume: asked for,
 /// and the only adapter is a CPU that runs the march.
-fn marches_natively(ctx: &GpuContext, native: CpuCopy) -> bool {
-    native != CpuCopy::No && ctx.adapter_info.device_type == wgpu::DeviceType::Cpu && crate::cpu::available()
+fn marches_natively(dev: &Device, native: CpuCopy) -> bool {
+    native != CpuCopy::No && dev.caps.native
 }
 
 /// Subnormal floats to zero (keeping the sign): fields that fall off
@@ -155,12 +157,6 @@ fn available_memory() -> Option<u64> {
     let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
     Some(kib * 1024)
 }
-
-/// Cells either side of a cell over which a maximum (minimum) projection
-/// also bounds the values: where the bound shows a ray's maximum cannot
-/// grow, it leaps out of that cube of 7^3 cells (24 voxels or more ahead)
-/// instead of out of the cell.
-pub const PROJECTION_REACH: usize = 3;
 
 /// The cells' bounds a maximum (`upper`) or minimum projection leaps by,
 /// under value map `map`; and, once a frame on the shader needs them, the
@@ -219,7 +215,7 @@ impl VolumeGpu {
 
     /// The same bounds as the texture the shader reads (`projections.wgsl`),
     /// uploaded at the first frame that needs it; and the bytes uploaded.
-    pub fn projection_view(&self, ctx: &GpuContext, map: ValueMap, upper: bool) -> Result<(wgpu::TextureView, u64), Error> {
+    pub fn projection_view(&self, dev: &Device, map: ValueMap, upper: bool) -> Result<(wgpu::TextureView, u64), Error> {
         let mut kept = self.projection_entry(map, upper);
         let entry = kept.as_mut().expect("made above");
         if let Some(view) = &entry.view {
@@ -234,7 +230,7 @@ impl VolumeGpu {
         let [g0, g1, g2] = b.grid;
         let size = wgpu::Extent3d { width: g2 as u32, height: g1 as u32, depth_or_array_layers: g0 as u32 };
         let rg32 = wgpu::TextureFormat::Rg32Uint;
-        let view = ctx.texture_with_data("uploading the projection's cell bounds", "cell bounds", size, D3, rg32, 1, &data)?;
+        let view = dev.ctx().texture_with_data("uploading the projection's cell bounds", "cell bounds", size, D3, rg32, 1, &data)?;
         entry.view = Some(view.clone());
         Ok((view, data.len() as u64))
     }
@@ -242,8 +238,8 @@ impl VolumeGpu {
     /// Uploads `vol`, storing float data at `precision`. `native`: keep the
     /// texels for the native march where it runs (`cpu_copy`), and make
     /// the texture from them when a frame on the shader needs it.
-    pub fn upload(ctx: &GpuContext, vol: &VolumeView, precision: Precision, native: CpuCopy) -> Result<VolumeGpu, Error> {
-        let max3d = ctx.limits.max_texture_dimension_3d as usize;
+    pub fn upload(dev: &Device, vol: &VolumeView, precision: Precision, native: CpuCopy) -> Result<VolumeGpu, Error> {
+        let max3d = dev.caps.max_texture_3d;
         if let Some(&big) = vol.dims.iter().find(|&&d| d > max3d) {
             return Err(Error::DeviceLimit(format!(
                 "volume shape {:?} has an axis of {big} voxels, over this device's 3-D texture limit \
@@ -253,8 +249,8 @@ impl VolumeGpu {
         }
         // A texture's data goes through one staging buffer: more than the
         // device's largest buffer fails validation with no useful message.
-        let unorm16 = ctx.features.contains(wgpu::Features::TEXTURE_FORMAT_16BIT_NORM);
-        let packed32 = Self::packs_float32(ctx, vol, precision);
+        let unorm16 = dev.caps.norm16;
+        let packed32 = Self::packs_float32(dev, vol, precision);
         let texel: u64 = match (vol.voxels, precision, vol.normals.is_some()) {
             (_, Precision::Fixed16, true) => 8,
             (_, Precision::Fixed16, false) => 2,
@@ -269,7 +265,7 @@ impl VolumeGpu {
         // Other normals are a texture of their own (4 bytes a voxel).
         let separate_normals = vol.normals.is_some() && texel < 8;
         let bytes = vol.voxels.len() as u64 * texel.max(if separate_normals { 4 } else { 0 });
-        let max = ctx.limits.max_buffer_size;
+        let max = dev.caps.max_buffer;
         if bytes > max {
             return Err(Error::DeviceLimit(format!(
                 "volume shape {:?} needs {bytes} bytes on the device, over its limit of {max} bytes per upload",
@@ -284,14 +280,14 @@ impl VolumeGpu {
                         .into(),
                 ));
             }
-            return Self::upload_fixed16(ctx, vol, native);
+            return Self::upload_fixed16(dev, vol, native);
         }
         if let (Voxels::F32(v), Precision::Float16) = (vol.voxels, precision) {
             precision.check(v)?;
-            return Self::upload_f16(ctx, vol, v, native);
+            return Self::upload_f16(dev, vol, v, native);
         }
         if let (Voxels::F32(v), Some(n), true) = (vol.voxels, vol.normals, packed32) {
-            return Self::upload_packed_f32(ctx, vol, v, n, native);
+            return Self::upload_packed_f32(dev, vol, v, n, native);
         }
         let converted: Vec<u8>;
         let (format, bytes): (wgpu::TextureFormat, &[u8]) = match vol.voxels {
@@ -322,15 +318,15 @@ impl VolumeGpu {
         let has_nan = matches!(vol.voxels, Voxels::F32(_)) && grid.has_nan;
         let mut packed = vol.normals.map(packed_normals).transpose()?;
         let normal_bytes = packed.as_ref().map_or(0, |n| 4 * n.len() as u64);
-        let cpu = cpu_copy(ctx, native, format, vol.dims, bytes, &mut packed);
+        let cpu = cpu_copy(dev, native, format, vol.dims, bytes, &mut packed);
         // Where the native march keeps the texels, the textures wait for a
         // frame on the shader: on a CPU adapter they would double the memory.
         let (view, normals) = match cpu {
             Some(_) => (None, None),
             None => {
                 let size = extent_of(vol.dims);
-                let view = ctx.texture_with_data("uploading the volume", "volume", size, D3, format, 1, bytes)?;
-                (Some(view), packed.as_deref().map(|n| upload_normals(ctx, size, n)).transpose()?.map(|(v, _)| v))
+                let view = dev.required_texture("uploading the volume", "volume", size, D3, format, bytes)?;
+                (Some(view), packed.as_deref().map(|n| upload_normals(dev, size, n)).transpose()?.map(|(v, _)| v))
             }
         };
         // R8Unorm is filtered in the shader: lavapipe's 8-bit filtering path
@@ -338,7 +334,7 @@ impl VolumeGpu {
         // (measured: alpha 0.006 instead of 0.029 at a sphere's rim).
         let filterable = match format {
             wgpu::TextureFormat::R8Unorm => false,
-            wgpu::TextureFormat::R32Float => ctx.features.contains(wgpu::Features::FLOAT32_FILTERABLE) && !has_nan,
+            wgpu::TextureFormat::R32Float => dev.caps.float32_filterable && !has_nan,
             _ => true,
         };
         Ok(VolumeGpu {
@@ -363,7 +359,7 @@ impl VolumeGpu {
     /// R16Snorm, or with normals one Rgba16Snorm texel (value, normal) per
     /// voxel, half the bytes of (value, normal) in float32. Float data's
     /// occupancy grid is built from the values the device reads.
-    fn upload_fixed16(ctx: &GpuContext, vol: &VolumeView, native: CpuCopy) -> Result<VolumeGpu, Error> {
+    fn upload_fixed16(dev: &Device, vol: &VolumeView, native: CpuCopy) -> Result<VolumeGpu, Error> {
         let coded = Fixed16::encode(vol.voxels)?;
         let grid = match vol.voxels {
             Voxels::F32(_) => {
@@ -384,7 +380,7 @@ impl VolumeGpu {
                 (wgpu::TextureFormat::Rgba16Snorm, texels)
             }
         };
-        let mut gpu = Self::whole_texels(ctx, vol, vol.dims, format, bytemuck::cast_slice(&texels), grid, native)?;
+        let mut gpu = Self::whole_texels(dev, vol, vol.dims, format, bytemuck::cast_slice(&texels), grid, native)?;
         gpu.stored = coded.map;
         Ok(gpu)
     }
@@ -392,7 +388,7 @@ impl VolumeGpu {
     /// Float data as float16: R16Float, or with normals one Rgba16Float texel
     /// (value, normal) per voxel, so that a lit sample fetches once. The
     /// occupancy grid is built from the rounded values the device reads.
-    fn upload_f16(ctx: &GpuContext, vol: &VolumeView, values: &[f32], native: CpuCopy) -> Result<VolumeGpu, Error> {
+    fn upload_f16(dev: &Device, vol: &VolumeView, values: &[f32], native: CpuCopy) -> Result<VolumeGpu, Error> {
         let halves = try_collect(values.len(), "converting the volume to float16", values.iter().map(|&v| f32_to_f16(v)))?;
         // Built before the texels so that the rounded copy is freed first
         // (a 512^3 volume's texels alone take 1 GB).
@@ -404,14 +400,14 @@ impl VolumeGpu {
             None => (wgpu::TextureFormat::R16Float, halves),
             Some(n) => (wgpu::TextureFormat::Rgba16Float, with_normals(&halves, n, f32_to_f16)?.into_flattened()),
         };
-        Self::whole_texels(ctx, vol, vol.dims, format, bytemuck::cast_slice(&data), grid, native)
+        Self::whole_texels(dev, vol, vol.dims, format, bytemuck::cast_slice(&data), grid, native)
     }
 
     /// A volume whose texels hold everything a sample reads (values, and
     /// normals when given), filtered by the sampler; `texels` is the
     /// texture's size (the volume's, or larger by a border).
     fn whole_texels(
-        ctx: &GpuContext,
+        dev: &Device,
         vol: &VolumeView,
         texels: [usize; 3],
         format: wgpu::TextureFormat,
@@ -419,10 +415,10 @@ impl VolumeGpu {
         grid: MinMaxGrid,
         native: CpuCopy,
     ) -> Result<VolumeGpu, Error> {
-        let cpu = cpu_copy(ctx, native, format, texels, bytes, &mut None);
+        let cpu = cpu_copy(dev, native, format, texels, bytes, &mut None);
         let view = match cpu {
             Some(_) => None,
-            None => Some(ctx.texture_with_data("uploading the volume", "volume", extent_of(texels), D3, format, 1, bytes)?),
+            None => Some(dev.required_texture("uploading the volume", "volume", extent_of(texels), D3, format, bytes)?),
         };
         Ok(VolumeGpu { view, cpu, bytes: bytes.len() as u64, ..Self::described(vol, format, grid) })
     }
@@ -452,7 +448,7 @@ impl VolumeGpu {
     /// march keeps texels it takes these (their subnormals flushed), not a
     /// copy (a 256^3 volume's lit texels are 256 MiB).
     fn whole_rgba32(
-        ctx: &GpuContext,
+        dev: &Device,
         vol: &VolumeView,
         texels: [usize; 3],
         mut data: Vec<[f32; 4]>,
@@ -461,8 +457,8 @@ impl VolumeGpu {
     ) -> Result<VolumeGpu, Error> {
         let format = wgpu::TextureFormat::Rgba32Float;
         // (Offsets past i32 are the copy's rule too: whole texels of four floats.)
-        if !marches_natively(ctx, native) || 4 * data.len() >= i32::MAX as usize {
-            return Self::whole_texels(ctx, vol, texels, format, bytemuck::cast_slice(&data), grid, CpuCopy::No);
+        if !marches_natively(dev, native) || 4 * data.len() >= i32::MAX as usize {
+            return Self::whole_texels(dev, vol, texels, format, bytemuck::cast_slice(&data), grid, CpuCopy::No);
         }
         let bytes = 16 * data.len() as u64;
         flush_subnormals(data.as_flattened_mut());
@@ -477,9 +473,9 @@ impl VolumeGpu {
     /// a voxel instead of 8. Only where the device filters float32 textures
     /// and every value is finite (volumes with NaN are interpolated in the
     /// shader, which reads values alone) and the texels fit one upload.
-    pub fn packs_float32(ctx: &GpuContext, vol: &VolumeView, precision: Precision) -> bool {
+    pub fn packs_float32(dev: &Device, vol: &VolumeView, precision: Precision) -> bool {
         match (vol.voxels, vol.normals, precision) {
-            (Voxels::F32(v), Some(_), Precision::Float32) => Self::rgba32_fits(ctx, vol.voxels, v.len() as u64),
+            (Voxels::F32(v), Some(_), Precision::Float32) => Self::rgba32_fits(dev, vol.voxels, v.len() as u64),
             _ => false,
         }
     }
@@ -488,22 +484,22 @@ impl VolumeGpu {
     /// filtered and uploaded: the device filters float32, they fit one
     /// upload, and every value is finite (volumes with NaN are interpolated
     /// in the shader, which reads values alone; integer codes always are).
-    fn rgba32_fits(ctx: &GpuContext, voxels: Voxels, texels: u64) -> bool {
-        ctx.features.contains(wgpu::Features::FLOAT32_FILTERABLE)
-            && texels * 16 <= ctx.limits.max_buffer_size
+    fn rgba32_fits(dev: &Device, voxels: Voxels, texels: u64) -> bool {
+        dev.caps.float32_filterable
+            && texels * 16 <= dev.caps.max_buffer
             && !matches!(voxels, Voxels::F32(v) if !v.iter().all(|x| x.is_finite()))
     }
 
     /// Float32 values with their normals' directions, one Rgba32Float texel each.
     fn upload_packed_f32(
-        ctx: &GpuContext,
+        dev: &Device,
         vol: &VolumeView,
         values: &[f32],
         normals: &[f32],
         native: CpuCopy,
     ) -> Result<VolumeGpu, Error> {
         let texels = with_normals(values, normals, |c| c)?;
-        Self::whole_rgba32(ctx, vol, vol.dims, texels, MinMaxGrid::build(vol), native)
+        Self::whole_rgba32(dev, vol, vol.dims, texels, MinMaxGrid::build(vol), native)
     }
 
     /// Values (float32, or integer codes as the fractions of their range
@@ -513,11 +509,11 @@ impl VolumeGpu {
     /// cannot filter float32 textures, a value is not finite, or the texels
     /// pass its limits. `grid` is the volume's own: the shader
     /// takes the border off before finding a sample's cell.
-    pub fn with_gradients(ctx: &GpuContext, vol: &VolumeView, grid: &MinMaxGrid) -> Result<Option<VolumeGpu>, Error> {
+    pub fn with_gradients(dev: &Device, vol: &VolumeView, grid: &MinMaxGrid) -> Result<Option<VolumeGpu>, Error> {
         let big = vol.dims.map(|d| d + 2);
         let texels = big.iter().product::<usize>() as u64;
-        let max3d = ctx.limits.max_texture_dimension_3d as usize;
-        if big.iter().any(|&d| d > max3d) || !Self::rgba32_fits(ctx, vol.voxels, texels) {
+        let max3d = dev.caps.max_texture_3d;
+        if big.iter().any(|&d| d > max3d) || !Self::rgba32_fits(dev, vol.voxels, texels) {
             return Ok(None);
         }
         // Only the spacings' ratios matter: in units of the box's longest
@@ -532,7 +528,7 @@ impl VolumeGpu {
             Voxels::U8(v) => gradients::bordered_texels(|n| v[n] as f32 / 255.0, vol.dims, spacing),
             Voxels::U16(v) => gradients::bordered_texels(|n| v[n] as f32 / 65535.0, vol.dims, spacing),
         }?;
-        let mut gpu = Self::whole_rgba32(ctx, vol, big, data, grid.clone(), CpuCopy::Always)?;
+        let mut gpu = Self::whole_rgba32(dev, vol, big, data, grid.clone(), CpuCopy::Always)?;
         gpu.normals_in_volume = true;
         gpu.gradients = true;
         Ok(Some(gpu))
@@ -542,17 +538,17 @@ impl VolumeGpu {
     /// march's copy stood in for them (`upload`): from that copy, whose
     /// float32 subnormals are flushed to zero, as GPUs that flush them read.
     /// Returns the bytes it uploaded (0 where the textures were there).
-    pub fn ensure_textures(&mut self, ctx: &GpuContext) -> Result<u64, Error> {
+    pub fn ensure_textures(&mut self, dev: &Device) -> Result<u64, Error> {
         if self.view.is_some() {
             return Ok(0);
         }
         let cpu = self.cpu.as_ref().expect("a volume without its texture keeps the native march's copy");
         let (size, n) = (extent_of(cpu.dims), cpu.dims.iter().product());
         let bytes = cpu.texels.bytes(n);
-        let view = ctx.texture_with_data("uploading the volume", "volume", size, D3, self.format, 1, bytes)?;
+        let view = dev.ctx().texture_with_data("uploading the volume", "volume", size, D3, self.format, 1, bytes)?;
         if self.normals_apart {
             let packed = cpu.normals.as_deref().expect("kept with the texels");
-            self.normals = Some(upload_normals(ctx, size, &packed[..n])?.0);
+            self.normals = Some(upload_normals(dev, size, &packed[..n])?.0);
         }
         self.view = Some(view);
         Ok(self.bytes)
@@ -613,20 +609,20 @@ fn packed_normals(n: &[f32]) -> Result<Vec<[i8; 4]>, Error> {
 }
 
 fn upload_normals(
-    ctx: &GpuContext,
+    dev: &Device,
     size: wgpu::Extent3d,
     packed: &[[i8; 4]],
 ) -> Result<(wgpu::TextureView, u64), Error> {
     let data: &[u8] = bytemuck::cast_slice(packed);
     let snorm8 = wgpu::TextureFormat::Rgba8Snorm;
-    let view = ctx.texture_with_data("uploading the normals", "normals", size, D3, snorm8, 1, data)?;
+    let view = dev.required_texture("uploading the normals", "normals", size, D3, snorm8, data)?;
     Ok((view, data.len() as u64))
 }
 
 /// RGBA rows as a filterable texture: f32 when the device can filter it,
 /// else f16 (`cap` caps values f16 cannot hold).
-fn float_table(ctx: &GpuContext, rows: &[[f32; 4]], cap: Option<f32>) -> (wgpu::TextureFormat, Vec<u8>) {
-    if ctx.features.contains(wgpu::Features::FLOAT32_FILTERABLE) {
+fn float_table(dev: &Device, rows: &[[f32; 4]], cap: Option<f32>) -> (wgpu::TextureFormat, Vec<u8>) {
+    if dev.caps.float32_filterable {
         (wgpu::TextureFormat::Rgba32Float, bytemuck::cast_slice(rows).to_vec())
     } else {
         let h: Vec<u16> = rows.iter().flatten().map(|&v| f32_to_f16(cap.map_or(v, |c| v.min(c)))).collect();
@@ -670,9 +666,13 @@ fn with_lut_row(key: &PreintKey, lut: &[[f32; 4]]) -> crate::cpu::PreintTable {
 pub struct Tables {
     /// The table (entries at scalars m / (M - 1)) as an M x 1 texture the
     /// sampler interpolates, and M.
-    pub lut: Option<(wgpu::TextureView, u32)>,
+    pub lut: Option<(Option<wgpu::TextureView>, u32)>,
     /// The rows last uploaded, kept to recompute occupancy and pre-integration.
     pub rows: Vec<[f32; 4]>,
+    /// A one-entry table as two equal entries: the native march reads a
+    /// sample's pair of neighbouring entries (a texture of one entry is the
+    /// same constant to the sampler).
+    pair: [[f32; 4]; 2],
     /// Bumped by every upload, so derived tables know when to rebuild.
     pub version: u64,
     /// The pre-integration table and what it was built for; its texture
@@ -710,6 +710,7 @@ impl Tables {
         Tables {
             lut: None,
             rows: Vec::new(),
+            pair: [[0.0; 4]; 2],
             version: 0,
             preint: None,
             preint_texels: Default::default(),
@@ -720,25 +721,33 @@ impl Tables {
     /// Uploads the table: a texture fetch is far cheaper than an indexed
     /// storage-buffer read on CPU drivers; f16 (where f32 cannot be filtered)
     /// is within 0.13 of an 8-bit level. Returns the bytes written.
-    pub fn upload_lut(&mut self, ctx: &GpuContext, lut: &[[f32; 4]]) -> Result<u64, Error> {
+    pub fn upload_lut(&mut self, dev: &Device, lut: &[[f32; 4]]) -> Result<u64, Error> {
         if lut.is_empty() {
             return Err(Error::InvalidInput("the transfer-function table must have at least one entry".into()));
         }
-        let max = ctx.limits.max_texture_dimension_2d as usize;
+        let max = dev.caps.max_texture_2d;
         if lut.len() > max {
             return Err(Error::DeviceLimit(format!(
                 "transfer-function table of {} entries exceeds this device's limit of {max} entries",
                 lut.len()
             )));
         }
-        let (format, bytes) = float_table(ctx, lut, None);
+        let (format, bytes) = float_table(dev, lut, None);
         let size = wgpu::Extent3d { width: lut.len() as u32, height: 1, depth_or_array_layers: 1 };
-        let view = ctx.texture_with_data("uploading the transfer function", "lut", size, D2, format, 1, &bytes)?;
+        let view = dev.texture("uploading the transfer function", "lut", size, D2, format, &bytes)?;
+        // (Without a device nothing is uploaded.)
+        let uploaded = if view.is_some() { bytes.len() as u64 } else { 0 };
         self.lut = Some((view, lut.len() as u32));
         self.rows = lut.to_vec();
+        self.pair = [lut[0]; 2];
         self.version += 1;
         self.preint_spares.clear();
-        Ok(bytes.len() as u64)
+        Ok(uploaded)
+    }
+
+    /// The table as the native march reads it: at least two entries.
+    pub fn march_rows(&self) -> &[[f32; 4]] {
+        if self.rows.len() >= 2 { &self.rows } else { &self.pair }
     }
 
     /// Makes the pre-integration table for `key` current: the current one
@@ -765,16 +774,16 @@ impl Tables {
 
     /// Uploads the current pre-integration table's texture if it is not
     /// yet (`preint`); returns the bytes that took.
-    pub fn upload_preint(&mut self, ctx: &GpuContext) -> Result<u64, Error> {
+    pub fn upload_preint(&mut self, dev: &Device) -> Result<u64, Error> {
         let Some((view @ None, _)) = self.preint.as_mut() else {
             return Ok(0);
         };
         let t = &self.preint_texels;
         // f16 tops out at 65504: deeper segments are opaque anyway.
-        let (format, bytes) = float_table(ctx, &t.texels, Some(6.0e4));
+        let (format, bytes) = float_table(dev, &t.texels, Some(6.0e4));
         let height = (t.side + 3 * t.rows) as u32;
         let size = wgpu::Extent3d { width: t.side as u32, height, depth_or_array_layers: 1 };
-        let uploaded = ctx.texture_with_data("uploading the pre-integration table", "preint", size, D2, format, 1, &bytes)?;
+        let uploaded = dev.ctx().texture_with_data("uploading the pre-integration table", "preint", size, D2, format, 1, &bytes)?;
         *view = Some(uploaded);
         Ok(bytes.len() as u64)
     }
@@ -862,7 +871,7 @@ impl Occupancy {
     /// where the frames this grid serves may composite uniform cells whole.
     pub fn upload(
         &mut self,
-        ctx: &GpuContext,
+        dev: &Device,
         grid: &MinMaxGrid,
         occ: &[u8],
         uniform: Option<&[u8]>,
@@ -884,16 +893,17 @@ impl Occupancy {
         let data: Vec<u8> = occ.iter().zip(&radius).flat_map(|(&o, &r)| [o, r]).collect();
         let size = wgpu::Extent3d { width: g2 as u32, height: g1 as u32, depth_or_array_layers: g0 as u32 };
         let rg8 = wgpu::TextureFormat::Rg8Uint;
-        let view = ctx.texture_with_data("uploading the occupancy grid", "occupancy", size, D3, rg8, 1, &data)?;
+        let view = dev.texture("uploading the occupancy grid", "occupancy", size, D3, rg8, &data)?;
         self.empty_fraction = occ.iter().filter(|&&o| o == 0).count() as f64 / occ.len() as f64;
         self.occupied = occupied_bounds(occ, grid.dims);
         self.dims = grid.dims;
         radius.extend([0; 3]);
         self.codes = radius;
         self.majorants = occ.iter().copied().chain([0; 3]).collect();
-        self.view = Some(view);
+        let uploaded = if view.is_some() { data.len() as u64 } else { 0 };
+        self.view = view;
         self.source = Some(source);
-        Ok(data.len() as u64)
+        Ok(uploaded)
     }
 }
 

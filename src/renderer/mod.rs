@@ -1,16 +1,18 @@
-//! A renderer: its resources (src/gpu/resources.rs) and, in frame.rs, its
-//! frame. Resources live as long as the renderer and are replaced only when
-//! their input changes: a camera, light or config change rewrites one
-//! uniform block and nothing else.
+//! A renderer: a scene's state and the engines that render it (`device`),
+//! its resources (`resources`), and in `frame` its frame, where one place
+//! decides which engine renders it. Resources live as long as the renderer
+//! and are replaced only when their input changes: a camera, light or
+//! config change rewrites one uniform block and nothing else.
 
-use super::context::{GpuContext, ProcessSlot};
+use crate::gpu::context::{GpuContext, ProcessSlot};
 use crate::config::{OpacityCorrection, RenderConfig};
 use crate::error::Error;
 use crate::model::Model;
 use crate::occupancy::{segment_ranges, uniform_radius, SegmentRanges};
-use super::params::Params;
-use super::pipeline::{max_dispatch_side, Pipelines};
-use super::resources::{readback_buffer, CpuCopy, Fixed, OccSource, Occupancy, Output, RayState, Tables, VolumeGpu};
+use crate::plan::Params;
+use crate::gpu::pipeline::Pipelines;
+use device::{Caps, Device, EngineChoice};
+use resources::{readback_buffer, CpuCopy, Fixed, OccSource, Occupancy, Output, RayState, Tables, VolumeGpu};
 use crate::scene::Bounds;
 use crate::transfer::ValueMap;
 use crate::volume::{Precision, VolumeView};
@@ -81,13 +83,44 @@ struct FrameBuffers {
     ray_state: RayState,
 }
 
-pub struct GpuRenderer {
-    ctx: Arc<GpuContext>,
+/// The shader engine's own objects, made where a device opened.
+struct Shader {
     pipelines: Arc<Pipelines>,
-    width: u32,
-    height: u32,
     frame: FrameBuffers,
     fixed: Fixed,
+}
+
+impl Shader {
+    fn new(ctx: &GpuContext, width: u32, height: u32) -> Result<Shader, Error> {
+        let pipelines = shared_pipelines(ctx)?;
+        let device = &ctx.device;
+        let (uniform, stats, stats_readback) = ctx.scoped("allocating renderer buffers", || {
+            use wgpu::BufferUsages as U;
+            (
+                buffer(device, "params", std::mem::size_of::<Params>() as u64, U::UNIFORM | U::COPY_DST),
+                buffer(device, "stats", STATS_BYTES, U::STORAGE | U::COPY_SRC | U::COPY_DST),
+                readback_buffer(device, "stats readback", STATS_BYTES),
+            )
+        })?;
+        let frame = FrameBuffers {
+            uniform,
+            stats,
+            stats_readback,
+            output: Output::new(ctx, width, height)?,
+            ray_state: RayState::new(ctx, 1)?,
+        };
+        Ok(Shader { pipelines, frame, fixed: Fixed::new(ctx)? })
+    }
+}
+
+/// A renderer: the engine-neutral state of a scene (volume, tables, empty
+/// cells, value map, crop box) and the engines that render its frames.
+pub struct Renderer {
+    dev: Device,
+    /// None where no device opened: every frame is the native march's.
+    shader: Option<Shader>,
+    width: u32,
+    height: u32,
     volume: Option<VolumeGpu>,
     tables: Tables,
     occupancy: Occupancy,
@@ -133,7 +166,9 @@ pub struct GpuRenderer {
 }
 
 mod bricked;
+pub mod device;
 mod frame;
+pub mod resources;
 
 pub use bricked::BrickFrame;
 
@@ -173,34 +208,21 @@ fn buffer(device: &wgpu::Device, label: &str, size: u64, usage: wgpu::BufferUsag
     device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size, usage, mapped_at_creation: false })
 }
 
-impl GpuRenderer {
-    pub fn new(width: u32, height: u32) -> Result<GpuRenderer, Error> {
-        let ctx = GpuContext::get()?;
-        let pipelines = shared_pipelines(&ctx)?;
-        Self::check_size(&ctx, width, height)?;
-        let device = &ctx.device;
-        let (uniform, stats, stats_readback) = ctx.scoped("allocating renderer buffers", || {
-            use wgpu::BufferUsages as U;
-            (
-                buffer(device, "params", std::mem::size_of::<Params>() as u64, U::UNIFORM | U::COPY_DST),
-                buffer(device, "stats", STATS_BYTES, U::STORAGE | U::COPY_SRC | U::COPY_DST),
-                readback_buffer(device, "stats readback", STATS_BYTES),
-            )
-        })?;
-        let frame = FrameBuffers {
-            uniform,
-            stats,
-            stats_readback,
-            output: Output::new(&ctx, width, height)?,
-            ray_state: RayState::new(&ctx, 1)?,
-        };
-        Ok(GpuRenderer {
-            fixed: Fixed::new(&ctx)?,
-            ctx,
-            pipelines,
+impl Renderer {
+    pub fn new(width: u32, height: u32) -> Result<Renderer, Error> {
+        Self::with_engines(width, height, EngineChoice::from_env()?)
+    }
+
+    /// A renderer of the engines `choice` asks for (`Device::open`).
+    pub fn with_engines(width: u32, height: u32, choice: EngineChoice) -> Result<Renderer, Error> {
+        let dev = Device::open(choice)?;
+        Self::check_size(&dev.caps, width, height)?;
+        let shader = dev.gpu.as_deref().map(|ctx| Shader::new(ctx, width, height)).transpose()?;
+        Ok(Renderer {
+            dev,
+            shader,
             width,
             height,
-            frame,
             volume: None,
             tables: Tables::new(),
             occupancy: Occupancy::new(),
@@ -260,8 +282,27 @@ impl GpuRenderer {
         }
     }
 
-    pub fn context(&self) -> &GpuContext {
-        &self.ctx
+    /// The engines and the limits storage follows.
+    pub fn device(&self) -> &Device {
+        &self.dev
+    }
+
+    /// Which engine renders frames it covers: "native" where the native
+    /// march does (no device, or a CPU adapter), else "shader".
+    pub fn engine(&self) -> &'static str {
+        if self.native_march && self.dev.caps.native { "native" } else { "shader" }
+    }
+
+    fn ctx(&self) -> &GpuContext {
+        self.dev.ctx()
+    }
+
+    fn shader(&self) -> &Shader {
+        self.shader.as_ref().expect("only frames on the shader reach its objects")
+    }
+
+    fn shader_mut(&mut self) -> &mut Shader {
+        self.shader.as_mut().expect("only frames on the shader reach its objects")
     }
 
     pub fn size(&self) -> (u32, u32) {
@@ -286,16 +327,16 @@ impl GpuRenderer {
     }
 
     pub fn cached_variants(&self) -> usize {
-        self.pipelines.cached_variants()
+        self.shader.as_ref().map_or(0, |s| s.pipelines.cached_variants())
     }
 
     /// Checks an image size against the device's limits.
-    pub fn check_size(ctx: &GpuContext, width: u32, height: u32) -> Result<(), Error> {
+    pub fn check_size(caps: &Caps, width: u32, height: u32) -> Result<(), Error> {
         if width == 0 || height == 0 {
             return Err(Error::InvalidInput(format!("width and height must be positive, got {width}x{height}")));
         }
         let bytes = (width as u64 * height as u64).saturating_mul(16);
-        let limit = ctx.max_storage_bytes();
+        let limit = caps.max_storage;
         if bytes > limit {
             return Err(Error::DeviceLimit(format!(
                 "image {width}x{height} needs {bytes} bytes of output, over this device's limit of {limit} \
@@ -303,7 +344,7 @@ impl GpuRenderer {
                 limit / 16
             )));
         }
-        let groups = max_dispatch_side(ctx.limits.max_compute_workgroups_per_dimension);
+        let groups = caps.max_side;
         if width as u64 > groups || height as u64 > groups {
             return Err(Error::DeviceLimit(format!(
                 "image {width}x{height} exceeds this device's limit of {groups} pixels per side"
@@ -314,11 +355,13 @@ impl GpuRenderer {
 
     pub fn resize(&mut self, width: u32, height: u32) -> Result<(), Error> {
         self.check_process()?;
-        Self::check_size(&self.ctx, width, height)?;
+        Self::check_size(&self.dev.caps, width, height)?;
         if (width, height) == (self.width, self.height) {
             return Ok(());
         }
-        self.frame.output = Output::new(&self.ctx, width, height)?;
+        if let Some(ctx) = self.dev.gpu.clone() {
+            self.shader_mut().frame.output = Output::new(&ctx, width, height)?;
+        }
         self.width = width;
         self.height = height;
         self.bind_group = None;
@@ -334,7 +377,9 @@ impl GpuRenderer {
     /// Uploads a volume, storing float data at `precision`.
     pub fn set_volume_with_precision(&mut self, vol: &VolumeView, precision: Precision) -> Result<(), Error> {
         self.check_process()?;
-        let volume = VolumeGpu::upload(&self.ctx, vol, precision, CpuCopy::IfRoom)?;
+        // (Alone, the native march's texels are the only copy.)
+        let copy = if self.shader.is_none() { CpuCopy::Always } else { CpuCopy::IfRoom };
+        let volume = VolumeGpu::upload(&self.dev, vol, precision, copy)?;
         let total = volume.uploaded();
         self.volume = Some(volume);
         self.bricks = None;
@@ -364,7 +409,7 @@ impl GpuRenderer {
             return Ok(false);
         }
         let grid = &self.volume.as_ref().expect("checked above").grid;
-        let Some(volume) = VolumeGpu::with_gradients(&self.ctx, vol, grid)? else {
+        let Some(volume) = VolumeGpu::with_gradients(&self.dev, vol, grid)? else {
             return Ok(false);
         };
         self.pending_upload += volume.uploaded();
@@ -376,7 +421,7 @@ impl GpuRenderer {
     /// Uploads an RGBA lookup table (entries at scalars `m / (M - 1)`).
     pub fn set_lut(&mut self, lut: &[[f32; 4]]) -> Result<(), Error> {
         self.check_process()?;
-        let bytes = self.tables.upload_lut(&self.ctx, lut)?;
+        let bytes = self.tables.upload_lut(&self.dev, lut)?;
         self.bind_group = None;
         self.spare_grids.clear();
         if self.volume.is_some() {
@@ -444,7 +489,7 @@ impl GpuRenderer {
             }
             OccSource::Below(bits) => (vol.grid.occupancy_reaching(f64::from_bits(bits), self.value_map), None),
         };
-        self.pending_upload += self.occupancy.upload(&self.ctx, &vol.grid, &occ, uniform.as_deref(), source)?;
+        self.pending_upload += self.occupancy.upload(&self.dev, &vol.grid, &occ, uniform.as_deref(), source)?;
         self.bind_group = None;
         Ok(())
     }

@@ -12,16 +12,16 @@
 //! colour and optical depth, or a projection's running value) instead of a
 //! pixel: a partial image for compositing with other bricks' (sort-last).
 
-use super::frame::{cpu_model, native_params};
-use super::{Ends, FrameStats, GpuRenderer, Rect, STATS_BYTES};
+use super::frame::native_params;
+use super::{Ends, FrameStats, Renderer, Rect, STATS_BYTES};
 use crate::bricks::BrickGrid;
 use crate::config::RenderConfig;
 use crate::error::{try_vec, Error};
-use crate::gpu::params::{world_unit, FrameInputs, Params};
+use crate::plan::params::{world_unit, FrameInputs, Params};
 use crate::gpu::pipeline::{marches_back_to_front, Variant};
-use crate::gpu::plan::PassPlan;
+use crate::gpu::passes::PassPlan;
 use crate::cpu::RayStates;
-use crate::gpu::resources::{CpuCopy, OccSource, Occupancy, RayState, VolumeGpu};
+use crate::renderer::resources::{CpuCopy, OccSource, Occupancy, RayState, VolumeGpu};
 use crate::model::Model;
 use crate::occupancy::{MinMaxGrid, SegmentRanges};
 use crate::output::{Format, Target};
@@ -100,7 +100,7 @@ pub struct BrickFrame {
     native: Option<RayStates>,
 }
 
-impl GpuRenderer {
+impl Renderer {
     /// Replaces the volume by an empty bricked one of shape `dims` in
     /// `bounds`, in bricks of `core` voxels with `ghost` voxels around each.
     pub fn set_brick_layout(&mut self, dims: [usize; 3], bounds: Bounds, core: [usize; 3], ghost: usize) -> Result<(), Error> {
@@ -136,9 +136,9 @@ impl GpuRenderer {
     /// not used).
     pub fn set_brick(&mut self, index: usize, vol: &VolumeView, precision: Precision) -> Result<(), Error> {
         self.check_process()?;
-        let ctx = self.ctx.clone();
+        let dev = self.dev.clone();
         // Kept for the native march where it may render the bricks (`native_bricks`).
-        let copy = if self.native_march { CpuCopy::Always } else { CpuCopy::No };
+        let copy = if self.native_march || self.shader.is_none() { CpuCopy::Always } else { CpuCopy::No };
         let (slot, grid, bounds) = self.slot(index)?;
         let padded = grid.padded_range(index);
         let want = padded.map(|[lo, hi]| hi - lo);
@@ -155,7 +155,7 @@ impl GpuRenderer {
                 "precision 'fixed16' is for volumes in one texture: store bricks as 'float32' or 'float16'".into(),
             ));
         }
-        let mut gpu = VolumeGpu::upload(&ctx, vol, precision, copy)?;
+        let mut gpu = VolumeGpu::upload(&dev, vol, precision, copy)?;
         // Passes are planned over the brick's own box.
         gpu.bounds = core_box(&grid, &bounds, index);
         let bytes = gpu.uploaded();
@@ -198,8 +198,11 @@ impl GpuRenderer {
     pub fn wait_idle(&self) -> Result<(), Error> {
         self.check_process()?;
         // Uploads wait in the queue for a submit: flush them first.
-        self.ctx.queue.submit([]);
-        self.ctx
+        let Some(ctx) = self.dev.gpu.as_deref() else {
+            return Ok(());
+        };
+        ctx.queue.submit([]);
+        ctx
             .device
             .poll(wgpu::PollType::Wait { submission_index: None, timeout: None })
             .map(drop)
@@ -300,15 +303,16 @@ impl GpuRenderer {
         let order: Vec<usize> = order.into_iter().filter(|&i| needed[i] && seen(i)).collect();
         let pixels = self.width as u64 * self.height as u64;
         let states = if native { Some(RayStates::new(self.width as usize, self.height as usize)?) } else { None };
-        if !native && self.frame.ray_state.pixels < pixels {
-            let limit = self.ctx.max_storage_bytes();
+        if !native && self.shader().frame.ray_state.pixels < pixels {
+            let limit = self.dev.caps.max_storage;
             if pixels * 16 > limit {
                 return Err(Error::DeviceLimit(format!(
                     "bricked frames keep 16 bytes per pixel: {}x{} is over this device's limit of {limit} bytes",
                     self.width, self.height
                 )));
             }
-            self.frame.ray_state = RayState::new(&self.ctx, pixels)?;
+            let state = RayState::new(self.ctx(), pixels)?;
+            self.shader_mut().frame.ray_state = state;
             self.bind_group = None;
         }
         self.depth_ready = false;
@@ -415,7 +419,7 @@ impl GpuRenderer {
         let bounds = self.bricks.as_ref().expect("a frame was begun").bounds;
         if let Some(states) = &frame.native {
             // The closing pass: every ray ends from its state.
-            let model = cpu_model(frame.cfg.model);
+            let model = frame.cfg.model;
             // (The isosurface's partial image is its pixels, as the shader's.)
             let keep = frame.params.keep_state == 1 && frame.cfg.model != Model::Isosurface;
             let target = Target::floats(out, w, h, Format::PREMULTIPLIED);
@@ -423,7 +427,7 @@ impl GpuRenderer {
             for (row, pixels) in states.states().chunks(w).enumerate() {
                 px.clear();
                 if !keep {
-                    px.extend((0..w).map(|x| states.pixel(row * w + x, model, &self.tables.rows)));
+                    px.extend((0..w).map(|x| states.pixel(row * w + x, model, self.tables.march_rows())));
                 }
                 // SAFETY: one thread writes the image, row by row.
                 unsafe { target.put(row, 0, if keep { pixels } else { &px }) };

@@ -1,22 +1,21 @@
 //! A renderer's frame: check, plan, bind, dispatch, read back.
 
-use super::{BindKey, Ends, FrameStats, GpuRenderer, Rect, LEAP_MIN_UNIFORM, SKIP_MIN_EMPTY, STATS_BYTES};
+use super::{BindKey, Ends, FrameStats, Renderer, Rect, LEAP_MIN_UNIFORM, SKIP_MIN_EMPTY, STATS_BYTES};
 use crate::config::{OpacityCorrection, RenderConfig};
-use crate::cpu::Model as CpuModel;
 use crate::gpu::bindings;
 use crate::error::{try_vec, Error};
-use crate::gpu::params::{world_unit, FrameInputs, Params};
+use crate::plan::params::{world_unit, FrameInputs, Params};
 use crate::gpu::pipeline::{dispatch_groups, Layout, Variant};
-use crate::gpu::plan::{plan, PassPlan};
+use crate::gpu::passes::{plan, PassPlan};
 use crate::gpu::readback::read_buffers;
-use crate::gpu::resources::{readback_buffer, PreintKey, RayState};
+use crate::renderer::resources::{readback_buffer, PreintKey, RayState};
 use crate::preintegrate;
 use crate::integrate::max_extinction;
 use crate::output::{Format, Image, Pixels, Target};
 use crate::model::Model;
 use crate::scene::{Camera, Light, Shading};
 
-impl GpuRenderer {
+impl Renderer {
     /// Renders into `out` (width * height * 4 floats: premultiplied RGBA,
     /// row 0 at the bottom).
     pub fn render_into(
@@ -97,6 +96,10 @@ impl GpuRenderer {
         let Some(cpu) = self.volume.as_ref().and_then(|v| v.cpu.as_ref()) else {
             return false;
         };
+        if self.shader.is_none() {
+            // The only engine: it renders every frame.
+            return true;
+        }
         let projects = matches!(variant.model, Model::Mip | Model::MinIp | Model::Average);
         let iso = variant.model == Model::Isosurface;
         let composites = matches!(
@@ -120,9 +123,7 @@ impl GpuRenderer {
             && shading
             && (projects || iso || composites)
             && (!variant.pre_integrated || variant.model == Model::EmissionAbsorption)
-            && !(variant.unbiased && variant.pre_integrated)
             && !(variant.cell_rates && self.occupancy.majorants.is_empty())
-            && self.tables.rows.len() >= 2
             && cfg.max_steps <= crate::cpu::MAX_STEPS as i64
     }
 
@@ -136,7 +137,7 @@ impl GpuRenderer {
     ) -> Result<FrameStats, Error> {
         let params = native_params(params);
         let frame = self.native_frame(variant, &params);
-        let iso = frame.model == CpuModel::Isosurface;
+        let iso = frame.model == Model::Isosurface;
         let pixels = self.width as usize * self.height as usize;
         let mut depth = if iso { Some(try_vec(pixels, f32::INFINITY, "the depth image")?) } else { None };
         // (The depth image starts at infinity, a miss's.)
@@ -157,34 +158,36 @@ impl GpuRenderer {
         let vol = self.volume.as_ref().expect("the volume keeps its texels");
         let cpu = vol.cpu.as_ref().expect("the volume keeps its texels");
         let occ = &self.occupancy;
-        let model = cpu_model(variant.model);
-        let iso = model == CpuModel::Isosurface;
+        let model = variant.model;
+        let iso = model == Model::Isosurface;
         // Every value counts in a projection: no empty cells, no runs (maximum
         // and minimum ones leap by their cells' bounds instead).
         let cells = !occ.codes.is_empty() && !model.projects();
         crate::cpu::Frame {
             params,
             volume: cpu,
-            lut: &self.tables.rows,
+            lut: self.tables.march_rows(),
             cells: cells.then_some((&occ.codes[..], occ.dims)),
             skip_empty: variant.skip_empty && cells,
             // Single scattering's light comes from shadow rays, not normals.
-            lit: variant.shading != Shading::AmbientOnly && !model.projects() && model != CpuModel::SingleScattering,
+            lit: variant.shading != Shading::AmbientOnly && !model.projects() && model != Model::SingleScattering,
             gradient: variant.shading == Shading::Gradient,
             point_light: variant.point_light,
             early_termination: variant.early_termination && !model.projects(),
             jitter: variant.jitter,
             uniform_runs: variant.uniform_cells && cells && !iso,
             model,
-            preint: variant.pre_integrated.then_some(&self.tables.preint_texels),
-            refine: if variant.pre_integrated { variant.refine } else { 0 },
+            // Unbiased frames track points, never segments (as the shader's
+            // `march_tracking`, which takes no pre-integration table).
+            preint: (variant.pre_integrated && !variant.unbiased).then_some(&self.tables.preint_texels),
+            refine: if variant.pre_integrated && !variant.unbiased { variant.refine } else { 0 },
             power: variant.correction == OpacityCorrection::Power,
-            scatter: model == CpuModel::SingleScattering && variant.shading != Shading::AmbientOnly,
+            scatter: model == Model::SingleScattering && variant.shading != Shading::AmbientOnly,
             unbiased: variant.unbiased,
             back_to_front: variant.unbiased && variant.back_to_front,
             majorants: (variant.unbiased && variant.cell_rates && cells).then_some(&occ.majorants[..]),
             bounds: (variant.skip_empty && variant.model.leaps_by_bounds())
-                .then(|| vol.projection_bounds(self.value_map, model == CpuModel::Mip)),
+                .then(|| vol.projection_bounds(self.value_map, model == Model::Mip)),
         }
     }
 
@@ -196,13 +199,10 @@ impl GpuRenderer {
     pub(super) fn native_bricks(&self, cfg: &RenderConfig) -> bool {
         // (Single scattering's shadow rays would cross other bricks.)
         let covered = cfg.model != Model::SingleScattering;
-        self.native_march
-            && self.ctx.adapter_info.device_type == wgpu::DeviceType::Cpu
-            && crate::cpu::available()
-            && covered
-            && (!cfg.pre_integrates() || cfg.model == Model::EmissionAbsorption)
-            && self.tables.rows.len() >= 2
-            && cfg.max_steps <= crate::cpu::MAX_STEPS as i64
+        if self.shader.is_none() {
+            return true;
+        }
+        self.native_march && self.dev.caps.native && covered && cfg.max_steps <= crate::cpu::MAX_STEPS as i64
     }
 
     /// Copies the last dispatch's image into `out`, in its format, on every
@@ -211,7 +211,8 @@ impl GpuRenderer {
     /// host, 3 ms on its 16). Returns the frame's statistics (largest step
     /// count a truncated ray needed, samples).
     pub(super) fn read_image(&self, out: &mut Target) -> Result<(u32, u64), Error> {
-        read_buffers(&self.ctx, &[&self.frame.output.readback, &self.frame.stats_readback], "the image", |data| {
+        let f = &self.shader().frame;
+        read_buffers(self.ctx(), &[&f.output.readback, &f.stats_readback], "the image", |data| {
             out.put_image(bytemuck::cast_slice(data[0]));
             let w: &[u32] = bytemuck::cast_slice(data[1]);
             (w[0], w[1] as u64 | (w[2] as u64) << 32)
@@ -338,8 +339,9 @@ impl GpuRenderer {
             && variant.can_leap_uniform()
             && self.occupancy.uniform_fraction >= LEAP_MIN_UNIFORM;
         let passes = plan(cfg, &vol.bounds, camera.position, shadow_rays, points, pixels, self.pass_samples())?;
-        if passes.per_pixel_state && self.frame.ray_state.pixels < pixels {
-            let limit = self.ctx.max_storage_bytes();
+        let state_pixels = self.shader.as_ref().map_or(u64::MAX, |s| s.frame.ray_state.pixels);
+        if passes.per_pixel_state && state_pixels < pixels {
+            let limit = self.dev.caps.max_storage;
             if pixels * 16 > limit {
                 return Err(Error::DeviceLimit(format!(
                     "rays of up to {} steps are marched in passes, which need 16 bytes per pixel: \
@@ -347,7 +349,8 @@ impl GpuRenderer {
                     passes.max_steps_needed, self.width, self.height
                 )));
             }
-            self.frame.ray_state = RayState::new(&self.ctx, pixels)?;
+            let state = RayState::new(self.ctx(), pixels)?;
+            self.shader_mut().frame.ray_state = state;
             self.bind_group = None;
         }
         if variant.pre_integrated {
@@ -375,15 +378,12 @@ impl GpuRenderer {
         if self.bind_group.as_ref().is_some_and(|(_, k)| *k == key) {
             return Ok(());
         }
-        self.pending_upload += self.tables.upload_preint(&self.ctx)?;
-        self.pending_upload += self.volume.as_mut().expect("checked by check_ready").ensure_textures(&self.ctx)?;
-        let preint = self.tables.preint.as_ref().and_then(|(v, _)| v.as_ref()).unwrap_or(&self.fixed.no_preint);
-        let vol = self.volume.as_ref().expect("checked by check_ready");
-        let (lut, _) = self.tables.lut.as_ref().expect("checked by check_ready");
-        let normals = vol.normals.as_ref().unwrap_or(&self.fixed.no_normals);
+        self.pending_upload += self.tables.upload_preint(&self.dev)?;
+        self.pending_upload += self.volume.as_mut().expect("checked by check_ready").ensure_textures(&self.dev)?;
         let occupancy = match projection {
             Some((map, upper)) => {
-                let (view, bytes) = vol.projection_view(&self.ctx, map, upper)?;
+                let vol = self.volume.as_ref().expect("checked by check_ready");
+                let (view, bytes) = vol.projection_view(&self.dev, map, upper)?;
                 self.pending_upload += bytes;
                 view
             }
@@ -393,29 +393,34 @@ impl GpuRenderer {
                 .clone()
                 .ok_or_else(|| Error::Gpu("the occupancy grid is missing: load the volume again".into()))?,
         };
+        let sh = self.shader();
+        let preint = self.tables.preint.as_ref().and_then(|(v, _)| v.as_ref()).unwrap_or(&sh.fixed.no_preint);
+        let vol = self.volume.as_ref().expect("checked by check_ready");
+        let (lut, _) = self.tables.lut.as_ref().expect("checked by check_ready");
+        let normals = vol.normals.as_ref().unwrap_or(&sh.fixed.no_normals);
         let view = wgpu::BindingResource::TextureView;
         let sampler = wgpu::BindingResource::Sampler;
-        let f = &self.frame;
+        let f = &sh.frame;
         let entries = [
             (bindings::PARAMS, f.uniform.as_entire_binding()),
             (bindings::VOLUME, view(vol.view.as_ref().expect("made above"))),
             (bindings::NORMALS, view(normals)),
-            (bindings::LUT, view(lut)),
+            (bindings::LUT, view(lut.as_ref().expect("uploaded with a device"))),
             (bindings::IMAGE, f.output.storage.as_entire_binding()),
             (bindings::STATS, f.stats.as_entire_binding()),
-            (bindings::VOLUME_SAMPLER, sampler(&self.fixed.volume_samplers[hw_filter as usize])),
-            (bindings::LINEAR_SAMPLER, sampler(&self.fixed.linear_sampler)),
+            (bindings::VOLUME_SAMPLER, sampler(&sh.fixed.volume_samplers[hw_filter as usize])),
+            (bindings::LINEAR_SAMPLER, sampler(&sh.fixed.linear_sampler)),
             (bindings::RAY_STATE, f.ray_state.state.as_entire_binding()),
             (bindings::RAY_DONE, f.ray_state.done.as_entire_binding()),
             (bindings::OCCUPANCY, view(&occupancy)),
             (bindings::PREINT, view(preint)),
         ]
         .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource });
-        let ctx = &self.ctx;
+        let ctx = self.ctx();
         let group = ctx.scoped("binding frame resources", || {
             ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("raymarch"),
-                layout: &self.pipelines.layouts[hw_filter as usize].bind_group,
+                layout: &sh.pipelines.layouts[hw_filter as usize].bind_group,
                 entries: &entries,
             })
         })?;
@@ -441,9 +446,10 @@ impl GpuRenderer {
             Some(r) if !ends.first => r,
             _ => Rect { x: 0, y: 0, width: self.width, height: self.height },
         };
-        let pipeline = self.pipelines.get(&self.ctx, variant)?;
-        let f = &self.frame;
-        let ctx = &self.ctx;
+        let sh = self.shader();
+        let ctx = self.ctx();
+        let pipeline = sh.pipelines.get(ctx, variant)?;
+        let f = &sh.frame;
         if ends.first {
             ctx.queue.write_buffer(&f.stats, 0, &[0u8; STATS_BYTES as usize]);
         }
@@ -508,10 +514,10 @@ impl GpuRenderer {
             return Ok(Some(d.iter().map(|&t| t * unit).collect()));
         }
         let bytes = self.width as u64 * self.height as u64 * 16;
-        let ctx = &self.ctx;
+        let ctx = self.ctx();
         let staging = ctx.scoped("reading the depth image", || readback_buffer(&ctx.device, "depth readback", bytes))?;
         let mut enc = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("depth") });
-        enc.copy_buffer_to_buffer(&self.frame.ray_state.state, 0, &staging, 0, bytes);
+        enc.copy_buffer_to_buffer(&self.shader().frame.ray_state.state, 0, &staging, 0, bytes);
         ctx.queue.submit([enc.finish()]);
         read_buffers(ctx, &[&staging], "the depth", |data| {
             let v: &[[f32; 4]] = bytemuck::cast_slice(data[0]);
@@ -574,23 +580,13 @@ impl GpuRenderer {
 /// `params` for the native march: its workers flush subnormal results to
 /// zero but read subnormal operands (crate::cpu), so the value map's scale
 /// is joined here, on a thread that keeps it.
+///
+/// The march takes at most `cpu::MAX_STEPS` steps a ray: a ray that needs
+/// more (a step 1e-9 of the box) is cut short there, and reported so.
 pub(super) fn native_params(params: &Params) -> Params {
     let mut params = *params;
+    params.max_steps = params.max_steps.min(crate::cpu::MAX_STEPS);
     params.value_scale = (params.value_prescale as f64 * params.value_scale as f64) as f32;
     params.value_prescale = 1.0;
     params
-}
-
-/// The native march's name for `model`.
-pub(super) fn cpu_model(model: Model) -> CpuModel {
-    match model {
-        Model::Absorption => CpuModel::Absorption,
-        Model::Emission => CpuModel::Emission,
-        Model::Mip => CpuModel::Mip,
-        Model::MinIp => CpuModel::MinIp,
-        Model::Average => CpuModel::Average,
-        Model::Isosurface => CpuModel::Isosurface,
-        Model::SingleScattering => CpuModel::SingleScattering,
-        Model::EmissionAbsorption => CpuModel::EmissionAbsorption,
-    }
 }
