@@ -27,14 +27,21 @@ fn main() {
     }
     let bounds = Bounds::new(DVec3::splat(-1.0), DVec3::splat(1.0)).unwrap();
     let vol = VolumeView::new([n, n, n], Voxels::F32(&data), None, bounds).unwrap();
-    let lut: Vec<[f32; 4]> = (0..256).map(|i| {
-        let s = i as f32 / 255.0;
-        [s, 0.5, 1.0 - s, 0.1 * s]
-    }).collect();
+    let lut: Vec<[f32; 4]> = (0..256)
+        .map(|i| {
+            let s = i as f32 / 255.0;
+            [s, 0.5, 1.0 - s, 0.1 * s]
+        })
+        .collect();
     let mut r = Renderer::new(size, size).unwrap();
     r.set_volume(&vol).unwrap();
     r.set_lut(&lut).unwrap();
-    let cam = Camera { position: DVec3::new(1.8371, 1.8371, 1.5), target: DVec3::ZERO, up: DVec3::Z, fov_y: std::f64::consts::FRAC_PI_4 };
+    let cam = Camera {
+        position: DVec3::new(1.8371, 1.8371, 1.5),
+        target: DVec3::ZERO,
+        up: DVec3::Z,
+        fov_y: std::f64::consts::FRAC_PI_4,
+    };
     for (label, light) in [("ambient", Light { diffuse: 0.0, ..Light::default() }), ("gradient", Light::default())] {
         let cfg = RenderConfig::default();
         r.render(&cam, &light, &cfg).unwrap();

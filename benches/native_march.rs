@@ -67,17 +67,26 @@ fn main() {
             [s, 0.5 * s, 1.0 - s, 0.1 * s]
         })
         .collect();
-    let camera = Camera { position: DVec3::new(1.8371, 1.8371, 1.5), target: DVec3::ZERO, up: DVec3::Z, fov_y: std::f64::consts::FRAC_PI_4 };
+    let camera = Camera {
+        position: DVec3::new(1.8371, 1.8371, 1.5),
+        target: DVec3::ZERO,
+        up: DVec3::Z,
+        fov_y: std::f64::consts::FRAC_PI_4,
+    };
     let light = Light::default();
     let cfg = RenderConfig::default();
 
     let mut gpu = Renderer::new(size, size).expect("a device");
     gpu.set_lut(&lut).expect("table");
     let device = gpu.context().describe();
-    println!("{size}x{size}, {n}^3 double sphere with normals, balanced, {} threads; {device}",
-             std::thread::available_parallelism().map_or(1, |t| t.get()));
-    println!("{:9} {:7} {:>9} {:>10} {:>10} {:>22} {:>22}", "storage", "engine", "ms", "samples M", "ns/sample",
-             "shader's ns over this", "max diff vs shader");
+    println!(
+        "{size}x{size}, {n}^3 double sphere with normals, balanced, {} threads; {device}",
+        std::thread::available_parallelism().map_or(1, |t| t.get())
+    );
+    println!(
+        "{:9} {:7} {:>9} {:>10} {:>10} {:>22} {:>22}",
+        "storage", "engine", "ms", "samples M", "ns/sample", "shader's ns over this", "max diff vs shader"
+    );
     let mut rows = Vec::new();
     for (name, precision) in [("float32", Precision::Float32), ("fixed16", Precision::Fixed16)] {
         gpu.set_volume_with_precision(&vol, precision).expect("upload");
@@ -89,8 +98,16 @@ fn main() {
         let shader_ns = shader_ms * 1e6 / shader.samples as f64;
         let mut row = |engine: &str, ms: f64, samples: u64, diff: String| {
             let ns = ms * 1e6 / samples as f64;
-            println!("{name:9} {engine:7} {ms:9.1} {:10.2} {ns:10.2} {:>21.2}x {diff:>22}", samples as f64 / 1e6, shader_ns / ns);
-            rows.push(format!("[\"{name}\", \"{engine}\", {ms:.1}, {:.2}, {ns:.2}, {:.2}, {diff}]", samples as f64 / 1e6, shader_ns / ns));
+            println!(
+                "{name:9} {engine:7} {ms:9.1} {:10.2} {ns:10.2} {:>21.2}x {diff:>22}",
+                samples as f64 / 1e6,
+                shader_ns / ns
+            );
+            rows.push(format!(
+                "[\"{name}\", \"{engine}\", {ms:.1}, {:.2}, {ns:.2}, {:.2}, {diff}]",
+                samples as f64 / 1e6,
+                shader_ns / ns
+            ));
         };
         row("shader", shader_ms, shader.samples, "\"-\"".into());
         if !stats.native {

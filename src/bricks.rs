@@ -69,7 +69,8 @@ impl BrickGrid {
     /// The voxels brick `index` stores: its core and ghosts, within the volume.
     pub fn padded_range(&self, index: usize) -> Ranges {
         let core = self.core_range(index);
-        [0, 1, 2].map(|a| [core[a][0].saturating_sub(self.ghost), core[a][1].saturating_add(self.ghost).min(self.dims[a])])
+        [0, 1, 2]
+            .map(|a| [core[a][0].saturating_sub(self.ghost), core[a][1].saturating_add(self.ghost).min(self.dims[a])])
     }
 
     /// Every brick in an order that is front to back along every ray from

@@ -29,9 +29,9 @@ impl OpacityCorrection {
         match s {
             "exponential" => Ok(OpacityCorrection::Exponential),
             "power" => Ok(OpacityCorrection::Power),
-            other => Err(Error::InvalidInput(format!(
-                "opacity_correction must be 'exponential' or 'power', got '{other}'"
-            ))),
+            other => {
+                Err(Error::InvalidInput(format!("opacity_correction must be 'exponential' or 'power', got '{other}'")))
+            }
         }
     }
 }
@@ -95,13 +95,8 @@ pub enum Preset {
 }
 
 impl Preset {
-    pub const ALL: [Preset; 5] = [
-        Preset::Preview,
-        Preset::Fast,
-        Preset::Balanced,
-        Preset::HighQuality,
-        Preset::UltraQuality,
-    ];
+    pub const ALL: [Preset; 5] =
+        [Preset::Preview, Preset::Fast, Preset::Balanced, Preset::HighQuality, Preset::UltraQuality];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -166,7 +161,11 @@ impl RenderConfig {
 
     /// The shadow rays' step: `shadow_step_size`, or `step_size` when 0.
     pub fn shadow_step(&self) -> f64 {
-        if self.shadow_step_size > 0.0 { self.shadow_step_size } else { self.step_size }
+        if self.shadow_step_size > 0.0 {
+            self.shadow_step_size
+        } else {
+            self.step_size
+        }
     }
 
     /// Whether frames take pre-integrated segments (only emission–absorption
@@ -180,33 +179,22 @@ impl RenderConfig {
     pub fn validate(&self) -> Result<Vec<String>, Error> {
         let mut warnings = Vec::new();
         if !self.step_size.is_finite() {
-            return Err(Error::InvalidInput(format!(
-                "step_size must be a finite number, got {}",
-                self.step_size
-            )));
+            return Err(Error::InvalidInput(format!("step_size must be a finite number, got {}", self.step_size)));
         }
         if self.step_size <= 0.0 {
             return Err(Error::InvalidInput("step_size must be positive".into()));
         }
         if self.step_size > 1.0 {
-            warnings.push(format!(
-                "step_size {} is very large and may produce poor quality",
-                py_float(self.step_size)
-            ));
+            warnings.push(format!("step_size {} is very large and may produce poor quality", py_float(self.step_size)));
         }
         if self.max_steps < 1 {
             return Err(Error::InvalidInput("max_steps must be at least 1".into()));
         }
         if self.max_steps > 10000 {
-            warnings.push(format!(
-                "max_steps {} is very large and may be slow",
-                self.max_steps
-            ));
+            warnings.push(format!("max_steps {} is very large and may be slow", self.max_steps));
         }
         if !(0.0..=1.0).contains(&self.opacity_threshold) {
-            return Err(Error::InvalidInput(
-                "opacity_threshold must be between 0.0 and 1.0".into(),
-            ));
+            return Err(Error::InvalidInput("opacity_threshold must be between 0.0 and 1.0".into()));
         }
         if !self.reference_step_size.is_finite() || self.reference_step_size <= 0.0 {
             return Err(Error::InvalidInput(format!(
@@ -289,7 +277,11 @@ impl RenderConfig {
             return 0;
         }
         let n = (length / self.step_size).ceil();
-        if n >= u64::MAX as f64 { u64::MAX } else { n as u64 }
+        if n >= u64::MAX as f64 {
+            u64::MAX
+        } else {
+            n as u64
+        }
     }
 }
 
@@ -312,7 +304,11 @@ pub fn py_float(v: f64) -> String {
         let sign = if exp < 0 { '-' } else { '+' };
         return format!("{mant}e{sign}{:02}", exp.abs());
     }
-    if s.contains('.') { s } else { format!("{s}.0") }
+    if s.contains('.') {
+        s
+    } else {
+        format!("{s}.0")
+    }
 }
 
 impl fmt::Display for RenderConfig {

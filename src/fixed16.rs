@@ -53,7 +53,11 @@ impl Fixed16 {
             )));
         }
         let factor = if span == 0 { 1 } else { 2 * CODE_MAX as u32 / span };
-        let codes = try_collect(n, "coding the volume in 16 bits", values.map(|x| ((x - lo) * factor) as i32 - CODE_MAX).map(|c| c as i16))?;
+        let codes = try_collect(
+            n,
+            "coding the volume in 16 bits",
+            values.map(|x| ((x - lo) * factor) as i32 - CODE_MAX).map(|c| c as i16),
+        )?;
         // value = (lo + (r * 32767 + 32767) / factor) / unit
         let f = factor as f64;
         let map = ValueMap { scale: CODE_MAX as f64 / (f * unit), offset: (lo as f64 + CODE_MAX as f64 / f) / unit };
@@ -78,7 +82,8 @@ impl Fixed16 {
         // A constant volume codes as 0 everywhere, read as `mid`.
         let half = if hi > lo { 0.5 * (hi - lo) } else { 1.0 };
         let map = ValueMap { scale: half, offset: mid };
-        let code = |x: f32| round_code(((x as f64 - mid) / half * CODE_MAX as f64).clamp(-CODE_MAX as f64, CODE_MAX as f64));
+        let code =
+            |x: f32| round_code(((x as f64 - mid) / half * CODE_MAX as f64).clamp(-CODE_MAX as f64, CODE_MAX as f64));
         let codes = try_collect(values.len(), "coding the volume in 16 bits", values.iter().map(|&x| code(x)))?;
         Ok(Fixed16 { codes, map })
     }

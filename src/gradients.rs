@@ -81,7 +81,12 @@ fn fill(
                                     (at(i, j, k + 1) - at(i, j, k - 1)) * inv[2],
                                 ];
                                 largest = g.iter().fold(largest, |m, c| m.max(c.abs()));
-                                *texel = [at(i, j, k) as f32, (g[0] * scale) as f32, (g[1] * scale) as f32, (g[2] * scale) as f32];
+                                *texel = [
+                                    at(i, j, k) as f32,
+                                    (g[0] * scale) as f32,
+                                    (g[1] * scale) as f32,
+                                    (g[2] * scale) as f32,
+                                ];
                             }
                         }
                     }
@@ -92,10 +97,7 @@ fn fill(
         // A worker indexes only within the clamped grid; were one to panic
         // anyway, the panic goes on here (the binding makes it an exception)
         // rather than leaving its texels unwritten.
-        workers
-            .into_iter()
-            .map(|w| w.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
-            .fold(0.0, f64::max)
+        workers.into_iter().map(|w| w.join().unwrap_or_else(|e| std::panic::resume_unwind(e))).fold(0.0, f64::max)
     })
 }
 

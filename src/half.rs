@@ -80,7 +80,7 @@ mod tests {
         assert_eq!(f32_to_f16(f32::NAN) & 0x7c00, 0x7c00);
         assert_eq!(f32_to_f16(5.960_464_5e-8), 0x0001); // smallest subnormal
         assert_eq!(f32_to_f16(6.103_515_6e-5), 0x0400); // smallest normal
-        // 1 + 2^-11 is halfway between 1 and the next half: rounds to even (1.0).
+                                                        // 1 + 2^-11 is halfway between 1 and the next half: rounds to even (1.0).
         assert_eq!(f32_to_f16(1.0 + 1.0 / 2048.0), 0x3c00);
         assert_eq!(f32_to_f16(1.0 + 3.0 / 2048.0), 0x3c02);
     }

@@ -150,7 +150,9 @@ impl Order {
         match s {
             "front_to_back" => Ok(Order::FrontToBack),
             "back_to_front" => Ok(Order::BackToFront),
-            other => Err(Error::InvalidInput(format!("order must be 'front_to_back' or 'back_to_front', got '{other}'"))),
+            other => {
+                Err(Error::InvalidInput(format!("order must be 'front_to_back' or 'back_to_front', got '{other}'")))
+            }
         }
     }
 }

@@ -12,8 +12,8 @@
 use crate::config::OpacityCorrection;
 use crate::integrate::extinction;
 use crate::transfer::ValueMap;
-use std::borrow::Cow;
 use crate::volume::{sanitize, VolumeView, Voxels};
+use std::borrow::Cow;
 
 pub const BLOCK: usize = 8;
 
@@ -50,11 +50,19 @@ fn window(c: usize, n: usize, apron: usize) -> std::ops::Range<usize> {
 // Plain comparisons (NaN is gone from the rows they see): f32::min's NaN
 // rule costs more than the comparison itself.
 fn lower(a: f32, b: f32) -> f32 {
-    if b < a { b } else { a }
+    if b < a {
+        b
+    } else {
+        a
+    }
 }
 
 fn higher(a: f32, b: f32) -> f32 {
-    if b > a { b } else { a }
+    if b > a {
+        b
+    } else {
+        a
+    }
 }
 
 /// The largest of `m` and |a - b| over the pairs (NaN pairs left out), in
@@ -387,7 +395,11 @@ impl MinMaxGrid {
         self.per_cell(m, map, |i0, i1| {
             let k = (usize::BITS - 1 - (i1 - i0 + 1).leading_zeros()) as usize;
             let e = levels[k][i0].max(levels[k][i1 + 1 - (1 << k)]);
-            if e > 0.0 { majorant_code(e) } else { 0 }
+            if e > 0.0 {
+                majorant_code(e)
+            } else {
+                0
+            }
         })
     }
 
@@ -458,7 +470,11 @@ impl MinMaxGrid {
 /// frame's own rate, the transfer function's largest).
 pub fn majorant_code(e: f64) -> u8 {
     let q = (16.0 * (e * (1.0 + 1e-4)).log2() + 128.0).ceil();
-    if !(q <= 254.0) { 255 } else { q.max(1.0) as u8 }
+    if !(q <= 254.0) {
+        255
+    } else {
+        q.max(1.0) as u8
+    }
 }
 
 /// The ranges holding every segment of length `step` (world units) centred
@@ -597,9 +613,7 @@ pub fn uniform_radius(keys: &[u32], dims: [usize; 3]) -> Vec<u8> {
     let beside: Vec<u8> = keys.iter().enumerate().map(|(i, &k)| (k != 0 && (lo[i] != k || hi[i] != k)) as u8).collect();
     let (to_keyless, to_beside) = (empty_radius(&keyless, dims), empty_radius(&beside, dims));
     let cap = MAX_EMPTY_RADIUS as u8;
-    (0..keys.len())
-        .map(|i| if keys[i] == 0 { 0 } else { to_keyless[i].min(to_beside[i] + 1).clamp(1, cap) })
-        .collect()
+    (0..keys.len()).map(|i| if keys[i] == 0 { 0 } else { to_keyless[i].min(to_beside[i] + 1).clamp(1, cap) }).collect()
 }
 
 #[cfg(test)]
@@ -613,7 +627,8 @@ mod tests {
     #[test]
     fn slabs_on_every_core_build_the_grid_of_one() {
         let dims = [37, 21, 30];
-        let mut data: Vec<f32> = (0..dims.iter().product::<usize>()).map(|i| ((i * 7919) % 1009) as f32 / 1009.0).collect();
+        let mut data: Vec<f32> =
+            (0..dims.iter().product::<usize>()).map(|i| ((i * 7919) % 1009) as f32 / 1009.0).collect();
         // The steepest step along axis 0 lies across a seam (slices 12 | 13 for 3 slabs of 13).
         let at = |i: usize, j: usize, k: usize| (i * dims[1] + j) * dims[2] + k;
         data[at(12, 4, 5)] = -3.0;
@@ -697,8 +712,7 @@ mod tests {
             let g = MinMaxGrid::build(&v);
             let wide = WIDE_APRONS.iter().zip(&g.wide).map(|(a, (min, max))| (1 + a, min, max));
             for (apron, min, max) in [(1, &g.min, &g.max)].into_iter().chain(wide) {
-                let window =
-                    |c: usize, n: usize| (c * BLOCK).saturating_sub(apron)..((c + 1) * BLOCK + apron).min(n);
+                let window = |c: usize, n: usize| (c * BLOCK).saturating_sub(apron)..((c + 1) * BLOCK + apron).min(n);
                 for a in 0..g.dims[0] {
                     for b in 0..g.dims[1] {
                         for c in 0..g.dims[2] {
@@ -871,7 +885,13 @@ mod tests {
         let keys: Vec<u32> = (0..n)
             .map(|i| {
                 let [a, b, c] = at(i);
-                if (a * 7 + b * 3 + c) % 23 == 0 { 0 } else if c < 6 { 1 } else { 2 }
+                if (a * 7 + b * 3 + c) % 23 == 0 {
+                    0
+                } else if c < 6 {
+                    1
+                } else {
+                    2
+                }
             })
             .collect();
         let r = uniform_radius(&keys, dims);
@@ -902,7 +922,11 @@ mod tests {
     /// The extinction per reference step a code stands for (255: unbounded),
     /// as shaders/tracking.wgsl decodes it.
     fn majorant_of(code: u8) -> f64 {
-        if code == 255 { f64::INFINITY } else { ((code as f64 - 128.0) / 16.0).exp2() }
+        if code == 255 {
+            f64::INFINITY
+        } else {
+            ((code as f64 - 128.0) / 16.0).exp2()
+        }
     }
 
     #[test]

@@ -38,7 +38,14 @@ pub fn opacity_change_sums(lut: &[[f32; 4]]) -> Vec<f32> {
 /// reference steps, by `substeps` pieces each treated as homogeneous
 /// (exact Beer–Lambert within a piece): unlit premultiplied colour
 /// `∫ T σ c ds / ref` in [0..3] and optical depth `∫ σ ds / ref` in [3].
-pub fn segment(lut: &[[f32; 4]], vf: f64, vb: f64, len_over_ref: f64, form: OpacityCorrection, substeps: usize) -> [f64; 4] {
+pub fn segment(
+    lut: &[[f32; 4]],
+    vf: f64,
+    vb: f64,
+    len_over_ref: f64,
+    form: OpacityCorrection,
+    substeps: usize,
+) -> [f64; 4] {
     let k = substeps.max(1);
     let piece = len_over_ref / k as f64;
     let mut out = [0.0f64; 4];
@@ -123,8 +130,13 @@ pub fn table(lut: &[[f32; 4]], len_over_ref: f64, form: OpacityCorrection, reach
 /// for what follows the table): each entry is written once, row by row,
 /// from the band of entries integrated (a zeroed table filled in place
 /// spent more time writing 1 MiB twice than integrating a narrow band).
-pub fn append_table(lut: &[[f32; 4]], len_over_ref: f64, form: OpacityCorrection, reach: usize,
-                    out: &mut Vec<[f32; 4]>) {
+pub fn append_table(
+    lut: &[[f32; 4]],
+    len_over_ref: f64,
+    form: OpacityCorrection,
+    reach: usize,
+    out: &mut Vec<[f32; 4]>,
+) {
     let m = table_side(lut.len());
     out.reserve(m * m);
     if lut.len() < 2 {
@@ -258,8 +270,13 @@ fn lerp_entry(lut: &[[f32; 4]], i: usize, f: f64) -> [f64; 4] {
 /// table longer than the table's side (MAX_TABLE) puts several of its
 /// intervals in each table interval; integrating each entry on its own
 /// took 0.55 s at 1024 entries and grew with their number.
-fn table_windowed(lut: &[[f32; 4]], len_over_ref: f64, form: OpacityCorrection, m: usize, reach: usize)
-    -> Vec<[f32; 4]> {
+fn table_windowed(
+    lut: &[[f32; 4]],
+    len_over_ref: f64,
+    form: OpacityCorrection,
+    m: usize,
+    reach: usize,
+) -> Vec<[f32; 4]> {
     let n = lut.len();
     let width = band_width(m, reach);
     // Entry (front f, back b) at band[b * width + f - band_start(b)].
@@ -456,8 +473,13 @@ fn absorbed_by(x: f64) -> f64 {
 /// each piece's composition to its block's end and from its block's start
 /// (in `to_end` and `from_start`, reused between calls); a window is the
 /// first of one and the second of the next.
-fn windows(a: &[Piece], d: usize, to_end: &mut Vec<Piece>, from_start: &mut Vec<Piece>,
-           mut emit: impl FnMut(usize, Piece)) {
+fn windows(
+    a: &[Piece],
+    d: usize,
+    to_end: &mut Vec<Piece>,
+    from_start: &mut Vec<Piece>,
+    mut emit: impl FnMut(usize, Piece),
+) {
     let len = a.len();
     to_end.clear();
     to_end.extend_from_slice(a);
@@ -538,8 +560,13 @@ mod tests {
     /// The largest colour difference, and optical-depth difference relative
     /// to the depth (or 1e-3), of table `t` from the (front, back) entries
     /// `at` integrated on their own with 256 pieces per interval crossed.
-    fn worst_against_fine(lut: &[[f32; 4]], t: &[[f32; 4]], len: f64, form: OpacityCorrection,
-                          at: &[(usize, usize)]) -> [f64; 2] {
+    fn worst_against_fine(
+        lut: &[[f32; 4]],
+        t: &[[f32; 4]],
+        len: f64,
+        form: OpacityCorrection,
+        at: &[(usize, usize)],
+    ) -> [f64; 2] {
         let m = table_side(lut.len());
         let mut worst = [0.0f64; 2];
         for &(f, b) in at {
@@ -630,10 +657,7 @@ mod tests {
         let t = table(&lut, 3.0, OpacityCorrection::Exponential, usize::MAX);
         let n = table_side(m);
         let e = t[(n - 1) * n]; // front 0, back 1
-        let band: f64 = (0..100_000)
-            .map(|i| eval_lut(&lut, (i as f64 + 0.5) / 100_000.0)[3])
-            .sum::<f64>()
-            / 100_000.0;
+        let band: f64 = (0..100_000).map(|i| eval_lut(&lut, (i as f64 + 0.5) / 100_000.0)[3]).sum::<f64>() / 100_000.0;
         assert!((e[3] as f64 - band * 3.0).abs() < 1e-4, "{} vs {}", e[3], band * 3.0);
         // Symmetric in the optical depth, not in colour order (only one colour here).
         let back = t[n - 1];

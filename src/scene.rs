@@ -115,9 +115,7 @@ impl Camera {
     /// aligned with it, so such cameras still render instead of giving NaN.
     pub fn basis(&self, width: u32, height: u32) -> Result<RayBasis, Error> {
         if width == 0 || height == 0 {
-            return Err(Error::InvalidInput(format!(
-                "width and height must be positive, got {width}x{height}"
-            )));
+            return Err(Error::InvalidInput(format!("width and height must be positive, got {width}x{height}")));
         }
         for (name, v) in [("position", self.position), ("target", self.target), ("up", self.up)] {
             if !v.is_finite() {
@@ -125,10 +123,7 @@ impl Camera {
             }
         }
         if !(self.fov_y > 0.0 && self.fov_y < std::f64::consts::PI) {
-            return Err(Error::InvalidInput(format!(
-                "fov must be between 0 and π radians, got {}",
-                self.fov_y
-            )));
+            return Err(Error::InvalidInput(format!("fov must be between 0 and π radians, got {}", self.fov_y)));
         }
         let to_target = self.target - self.position;
         let len = to_target.length();
@@ -185,13 +180,7 @@ pub struct Light {
 
 impl Default for Light {
     fn default() -> Self {
-        Light {
-            position: DVec3::ONE,
-            target: DVec3::ZERO,
-            ambient: 0.2,
-            diffuse: 0.8,
-            kind: LightKind::Directional,
-        }
+        Light { position: DVec3::ONE, target: DVec3::ZERO, ambient: 0.2, diffuse: 0.8, kind: LightKind::Directional }
     }
 }
 
@@ -294,7 +283,13 @@ mod tests {
 
     #[test]
     fn light_without_direction_is_ambient() {
-        let l = Light { position: DVec3::ZERO, target: DVec3::ZERO, ambient: 0.5, diffuse: 0.5, kind: LightKind::Directional };
+        let l = Light {
+            position: DVec3::ZERO,
+            target: DVec3::ZERO,
+            ambient: 0.5,
+            diffuse: 0.5,
+            kind: LightKind::Directional,
+        };
         assert_eq!(l.intensity(Some(DVec3::X), DVec3::ZERO), 0.5);
         let l = Light { kind: LightKind::Point, position: DVec3::new(2.0, 0.0, 0.0), ..l };
         // At the origin the light travels along -X; a normal along -X is fully lit.

@@ -46,7 +46,9 @@ impl ValueMap {
 
     pub fn new(scale: f64, offset: f64) -> Result<ValueMap, String> {
         if !(scale.is_finite() && scale > 0.0 && offset.is_finite()) {
-            return Err(format!("value map needs a finite scale > 0 and a finite offset, got scale {scale}, offset {offset}"));
+            return Err(format!(
+                "value map needs a finite scale > 0 and a finite offset, got scale {scale}, offset {offset}"
+            ));
         }
         Ok(ValueMap { scale, offset })
     }
@@ -76,15 +78,9 @@ pub fn colormap_names() -> Vec<&'static str> {
 /// A built-in colormap as 256 RGB triples in [0, 1].
 pub fn colormap(name: &str) -> Option<Vec<[f64; 3]>> {
     let (_, hex) = colormaps_data::TABLES.iter().find(|(n, _)| *n == name)?;
-    let bytes: Vec<u8> = (0..hex.len() / 2)
-        .map(|i| u8::from_str_radix(&hex[2 * i..2 * i + 2], 16).unwrap_or(0))
-        .collect();
-    Some(
-        bytes
-            .chunks_exact(3)
-            .map(|c| [c[0] as f64 / 255.0, c[1] as f64 / 255.0, c[2] as f64 / 255.0])
-            .collect(),
-    )
+    let bytes: Vec<u8> =
+        (0..hex.len() / 2).map(|i| u8::from_str_radix(&hex[2 * i..2 * i + 2], 16).unwrap_or(0)).collect();
+    Some(bytes.chunks_exact(3).map(|c| [c[0] as f64 / 255.0, c[1] as f64 / 255.0, c[2] as f64 / 255.0]).collect())
 }
 
 #[cfg(test)]

@@ -4,8 +4,8 @@
 
 use glam::DVec3;
 use pyvr_core::config::RenderConfig;
-use pyvr_core::renderer::Renderer;
 use pyvr_core::model::{Model, Order};
+use pyvr_core::renderer::Renderer;
 use pyvr_core::scene::{Bounds, Camera, Light};
 use pyvr_core::volume::{Precision, VolumeView, Voxels};
 
@@ -24,10 +24,12 @@ fn field(d: [usize; 3]) -> Vec<f32> {
 }
 
 fn lut() -> Vec<[f32; 4]> {
-    (0..64).map(|m| {
-        let x = m as f32 / 63.0;
-        [x, 0.5 + 0.5 * (6.0 * x).sin(), 1.0 - x, if x > 0.3 { (x - 0.3) * 0.8 } else { 0.0 }]
-    }).collect()
+    (0..64)
+        .map(|m| {
+            let x = m as f32 / 63.0;
+            [x, 0.5 + 0.5 * (6.0 * x).sin(), 1.0 - x, if x > 0.3 { (x - 0.3) * 0.8 } else { 0.0 }]
+        })
+        .collect()
 }
 
 fn padded(data: &[f32], d: [usize; 3], r: [[usize; 2]; 3]) -> Vec<f32> {
@@ -74,14 +76,17 @@ fn bricked_frames_equal_the_whole_volume() {
         ("emission", RenderConfig { model: Model::Emission, ..base }),
     ];
     for (core, ghost_extra) in [([5, 6, 7], 0), ([18, 14, 22], 0), ([18, 14, 11], 0), ([7, 14, 4], 1)] {
-        let ghost = pyvr_core::bricks::BrickGrid::ghost_for(0.03, bounds.extent() / DVec3::new(18.0, 14.0, 22.0)) + ghost_extra;
+        let ghost =
+            pyvr_core::bricks::BrickGrid::ghost_for(0.03, bounds.extent() / DVec3::new(18.0, 14.0, 22.0)) + ghost_extra;
         bricked.set_brick_layout(d, bounds, core, ghost).unwrap();
         let grid = bricked.brick_grid().unwrap();
         for b in 0..grid.len() {
             let r = grid.padded_range(b);
             let v = padded(&data, d, r);
             let dims = r.map(|[lo, hi]| hi - lo);
-            bricked.set_brick(b, &VolumeView::new(dims, Voxels::F32(&v), None, bounds).unwrap(), Precision::Float32).unwrap();
+            bricked
+                .set_brick(b, &VolumeView::new(dims, Voxels::F32(&v), None, bounds).unwrap(), Precision::Float32)
+                .unwrap();
         }
         for cam in &cameras {
             for (name, cfg) in &configs {
@@ -95,8 +100,16 @@ fn bricked_frames_equal_the_whole_volume() {
                 bricked.end_bricks(&mut got).unwrap();
                 let diff = max_diff(&want, &got);
                 if diff > 1e-3 {
-                    let bad: Vec<_> = (0..want.len() / 4).filter(|&p| max_diff(&want[p * 4..p * 4 + 4], &got[p * 4..p * 4 + 4]) > 1e-3).collect();
-                    eprintln!("{name}: {} bad pixels, e.g. {:?}: want {:?} got {:?}", bad.len(), bad[0], &want[bad[0] * 4..bad[0] * 4 + 4], &got[bad[0] * 4..bad[0] * 4 + 4]);
+                    let bad: Vec<_> = (0..want.len() / 4)
+                        .filter(|&p| max_diff(&want[p * 4..p * 4 + 4], &got[p * 4..p * 4 + 4]) > 1e-3)
+                        .collect();
+                    eprintln!(
+                        "{name}: {} bad pixels, e.g. {:?}: want {:?} got {:?}",
+                        bad.len(),
+                        bad[0],
+                        &want[bad[0] * 4..bad[0] * 4 + 4],
+                        &got[bad[0] * 4..bad[0] * 4 + 4]
+                    );
                 }
                 // 1e-4 of full scale: f32 rounding of texture coordinates only.
                 // f32 rounding of texture coordinates only: far below a level (1/255).

@@ -28,10 +28,12 @@ fn ball(c: [f32; 3]) -> Vec<f32> {
 
 /// Opacity only between 0.4 and 0.6: a shell of the ball.
 fn lut() -> Vec<[f32; 4]> {
-    (0..64).map(|m| {
-        let x = m as f32 / 63.0;
-        [x, 1.0 - x, 0.5, if (0.4..=0.6).contains(&x) { 0.8 } else { 0.0 }]
-    }).collect()
+    (0..64)
+        .map(|m| {
+            let x = m as f32 / 63.0;
+            [x, 1.0 - x, 0.5, if (0.4..=0.6).contains(&x) { 0.8 } else { 0.0 }]
+        })
+        .collect()
 }
 
 fn max_diff(a: &[f32], b: &[f32]) -> f32 {

@@ -5,10 +5,10 @@
 
 use glam::DVec3;
 use pyvr_core::config::{OpacityCorrection, RenderConfig};
-use pyvr_core::renderer::Renderer;
-use pyvr_core::integrate::{render, Frame};
-use pyvr_core::scene::{Bounds, Camera, Light, LightKind};
 use pyvr_core::half::{f16_to_f32, f32_to_f16};
+use pyvr_core::integrate::{render, Frame};
+use pyvr_core::renderer::Renderer;
+use pyvr_core::scene::{Bounds, Camera, Light, LightKind};
 use pyvr_core::transfer::ValueMap;
 use pyvr_core::volume::{Precision, VolumeView, Voxels};
 
@@ -147,10 +147,12 @@ fn normals_point_light_power_form_truncated() {
 }
 
 fn point_light_scene() -> (Vec<f32>, Vec<f32>, Vec<[f32; 4]>) {
-    let normals: Vec<f32> = (0..1000).flat_map(|i| {
-        let a = i as f32 * 0.37;
-        [a.sin(), a.cos(), 0.3]
-    }).collect();
+    let normals: Vec<f32> = (0..1000)
+        .flat_map(|i| {
+            let a = i as f32 * 0.37;
+            [a.sin(), a.cos(), 0.3]
+        })
+        .collect();
     (blob([10, 10, 10]), normals, ramp_lut())
 }
 
@@ -158,7 +160,12 @@ fn point_light_frame<'a>(data: &'a [f32], normals: &'a [f32], lut: &'a [[f32; 4]
     let vol = VolumeView::new([10, 10, 10], Voxels::F32(data), Some(normals), Bounds::default()).unwrap();
     let mut f = base_frame(vol, lut);
     f.light = Light { position: DVec3::new(0.0, 2.0, 0.5), kind: LightKind::Point, ..Light::default() };
-    f.config = RenderConfig { step_size: 0.02, max_steps: 30, opacity_correction: OpacityCorrection::Power, ..RenderConfig::default() };
+    f.config = RenderConfig {
+        step_size: 0.02,
+        max_steps: 30,
+        opacity_correction: OpacityCorrection::Power,
+        ..RenderConfig::default()
+    };
     f
 }
 
@@ -183,9 +190,16 @@ fn camera_inside_axis_aligned_u8_ambient() {
     let lut = ramp_lut();
     let vol = VolumeView::new(dims, Voxels::U8(&data), None, Bounds::default()).unwrap();
     let mut f = base_frame(vol, &lut);
-    f.camera = Camera { position: DVec3::new(0.1, 0.0, 0.0), target: DVec3::new(-1.0, 0.0, 0.0), up: DVec3::Z, fov_y: 1.2 };
+    f.camera =
+        Camera { position: DVec3::new(0.1, 0.0, 0.0), target: DVec3::new(-1.0, 0.0, 0.0), up: DVec3::Z, fov_y: 1.2 };
     f.light = Light { diffuse: 0.0, ambient: 0.7, ..Light::default() };
-    f.config = RenderConfig { early_ray_termination: false, opacity_threshold: 1.0, step_size: 0.005, max_steps: 2000, ..RenderConfig::default() };
+    f.config = RenderConfig {
+        early_ray_termination: false,
+        opacity_threshold: 1.0,
+        step_size: 0.005,
+        max_steps: 2000,
+        ..RenderConfig::default()
+    };
     compare(&f, "inside");
 }
 
@@ -240,7 +254,12 @@ fn every_model_and_option_matches_the_oracle() {
     let cases: Vec<(&str, RenderConfig, Light, &[[f32; 4]])> = vec![
         ("absorption", RenderConfig { model: Model::Absorption, ..base }, lit, &ramp),
         ("emission", RenderConfig { model: Model::Emission, ..base }, lit, &ramp),
-        ("scattering directional hg", RenderConfig { model: Model::SingleScattering, anisotropy: 0.5, shadow_step_size: 0.05, ..base }, lit, &ramp),
+        (
+            "scattering directional hg",
+            RenderConfig { model: Model::SingleScattering, anisotropy: 0.5, shadow_step_size: 0.05, ..base },
+            lit,
+            &ramp,
+        ),
         ("scattering point", RenderConfig { model: Model::SingleScattering, ..base }, point, &ramp),
         ("mip", RenderConfig { model: Model::Mip, ..base }, lit, &ramp),
         ("minip", RenderConfig { model: Model::MinIp, ..base }, lit, &inverted),
@@ -249,7 +268,12 @@ fn every_model_and_option_matches_the_oracle() {
         ("jitter", RenderConfig { jitter: true, jitter_seed: 5, ..base }, lit, &ramp),
         ("jitter back to front", RenderConfig { jitter: true, order: Order::BackToFront, ..base }, lit, &ramp),
         ("pre-integrated", RenderConfig { pre_integrated: true, step_size: 0.08, ..base }, lit, &ramp),
-        ("pre-integrated btf", RenderConfig { pre_integrated: true, step_size: 0.08, order: Order::BackToFront, ..base }, lit, &ramp),
+        (
+            "pre-integrated btf",
+            RenderConfig { pre_integrated: true, step_size: 0.08, order: Order::BackToFront, ..base },
+            lit,
+            &ramp,
+        ),
     ];
     for (label, cfg, light, table) in cases {
         let mut f = base_frame(vol, table);
@@ -344,7 +368,8 @@ fn errors_say_whose_move_it_is() {
     assert!(matches!(Renderer::new(1 << 30, 1 << 30), Err(Error::DeviceLimit(_))));
     let mut gpu = Renderer::new(4, 4).unwrap();
     let camera = Camera { position: DVec3::new(3.0, 0.0, 0.0), target: DVec3::ZERO, up: DVec3::Z, fov_y: 0.8 };
-    let light = Light { position: DVec3::ONE, target: DVec3::ZERO, ambient: 0.2, diffuse: 0.8, kind: LightKind::Directional };
+    let light =
+        Light { position: DVec3::ONE, target: DVec3::ZERO, ambient: 0.2, diffuse: 0.8, kind: LightKind::Directional };
     let err = gpu.render(&camera, &light, &RenderConfig::default()).unwrap_err();
     assert!(matches!(err, Error::InvalidInput(ref m) if m.starts_with("no volume loaded")), "{err}");
     assert!(matches!(gpu.set_lut(&[]), Err(Error::InvalidInput(_))));
@@ -358,7 +383,8 @@ fn a_stop_request_ends_a_long_frame_between_passes() {
     let vol = VolumeView::new([16, 16, 16], Voxels::F32(&data), None, Bounds::default()).unwrap();
     let mut f = base_frame(vol, &lut);
     // Rays of up to ~30,000 steps: two passes of at most 16384 or more.
-    f.config = RenderConfig { step_size: 1e-4, max_steps: 100_000, early_ray_termination: false, ..RenderConfig::default() };
+    f.config =
+        RenderConfig { step_size: 1e-4, max_steps: 100_000, early_ray_termination: false, ..RenderConfig::default() };
     let mut gpu = Renderer::new(f.width, f.height).unwrap();
     if gpu.device().gpu.is_none() {
         // Passes are the shader engine's, and no adapter opened.
@@ -398,7 +424,8 @@ fn the_oracle_stops_when_asked() {
     let lut = ramp_lut();
     let vol = VolumeView::new([16, 16, 16], Voxels::F32(&data), None, Bounds::default()).unwrap();
     let mut f = base_frame(vol, &lut);
-    f.config = RenderConfig { step_size: 1e-5, max_steps: 1_000_000, early_ray_termination: false, ..RenderConfig::default() };
+    f.config =
+        RenderConfig { step_size: 1e-5, max_steps: 1_000_000, early_ray_termination: false, ..RenderConfig::default() };
     f.width = 256;
     f.height = 256;
     let started = std::time::Instant::now();

@@ -7,8 +7,8 @@
 
 use glam::DVec3;
 use pyvr_core::config::RenderConfig;
-use pyvr_core::renderer::Renderer;
 use pyvr_core::model::Model;
+use pyvr_core::renderer::Renderer;
 use pyvr_core::scene::{Bounds, Camera, Light};
 use pyvr_core::volume::{Precision, VolumeView, Voxels};
 
@@ -71,8 +71,12 @@ fn the_native_march_renders_the_shaders_frame() {
     let codes: Vec<u8> = values.iter().map(|v| (v * 255.0).round() as u8).collect();
     let coded = VolumeView::new([n; 3], Voxels::U8(&codes), Some(&normals), bounds).unwrap();
     let mut native_frames = 0;
-    let storages =
-        [(&vol, Precision::Float32), (&vol, Precision::Fixed16), (&vol, Precision::Float16), (&coded, Precision::Float32)];
+    let storages = [
+        (&vol, Precision::Float32),
+        (&vol, Precision::Fixed16),
+        (&vol, Precision::Float16),
+        (&coded, Precision::Float32),
+    ];
     for (vol, precision) in storages {
         r.set_volume_with_precision(vol, precision).unwrap();
         let precision = format!("{precision:?}{}", if std::ptr::eq(vol, &coded) { ", 8-bit codes" } else { "" });
@@ -84,7 +88,10 @@ fn the_native_march_renders_the_shaders_frame() {
             r.native_march = true;
             let (native, t) = r.render(&camera, &light, cfg).unwrap();
             if !t.native {
-                assert!(!(cpu_adapter && pyvr_core::cpu::available()), "a CPU adapter with AVX2 must take the native march");
+                assert!(
+                    !(cpu_adapter && pyvr_core::cpu::available()),
+                    "a CPU adapter with AVX2 must take the native march"
+                );
                 continue;
             }
             native_frames += 1;
@@ -96,7 +103,12 @@ fn the_native_march_renders_the_shaders_frame() {
             // texels its values round otherwise, which moves the leaps of
             // cells whose bound lies within that rounding.
             let within = if matches!(cfg.model, Model::Mip | Model::MinIp) { 1e-3 } else { 1e-4 };
-            assert!(s.samples.abs_diff(t.samples) as f64 <= within * s.samples as f64 + 2.0, "{} vs {}", s.samples, t.samples);
+            assert!(
+                s.samples.abs_diff(t.samples) as f64 <= within * s.samples as f64 + 2.0,
+                "{} vs {}",
+                s.samples,
+                t.samples
+            );
         }
     }
     if cpu_adapter && pyvr_core::cpu::available() {

@@ -196,11 +196,7 @@ impl Texels for Rgba16Snorm<'_> {
 /// `pair` must read only texels the offsets address.
 #[inline]
 #[target_feature(enable = "avx2,fma,f16c")]
-unsafe fn corner_pairs(
-    offs: &[[__m256i; 2]; 3],
-    w: &[__m256; 3],
-    pair: impl Fn(usize, bool) -> __m256,
-) -> [__m256; 4] {
+unsafe fn corner_pairs(offs: &[[__m256i; 2]; 3], w: &[__m256; 3], pair: impl Fn(usize, bool) -> __m256) -> [__m256; 4] {
     let plane = |x: usize, y: usize| -> [i32; 8] {
         // SAFETY: i32x8 and [i32; 8] have the same size.
         unsafe { std::mem::transmute(_mm256_add_epi32(_mm256_add_epi32(offs[0][x], offs[1][y]), offs[2][0])) }
@@ -612,7 +608,10 @@ pub(super) fn exp_nonpositive(x: __m256) -> __m256 {
 #[target_feature(enable = "avx2,fma,f16c")]
 pub(super) fn lut_rgba(lut: &[[f32; 4]], v: __m256) -> [__m256; 4] {
     let m = lut.len();
-    let xl = _mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(v, _mm256_setzero_ps()), _mm256_set1_ps(1.0)), _mm256_set1_ps((m - 1) as f32));
+    let xl = _mm256_mul_ps(
+        _mm256_min_ps(_mm256_max_ps(v, _mm256_setzero_ps()), _mm256_set1_ps(1.0)),
+        _mm256_set1_ps((m - 1) as f32),
+    );
     let k = _mm256_min_epi32(_mm256_cvttps_epi32(xl), _mm256_set1_epi32(m as i32 - 2));
     let t = _mm256_sub_ps(xl, _mm256_cvtepi32_ps(k));
     // Each ray's entries k and k + 1 in one 256-bit load.
@@ -669,7 +668,8 @@ pub(super) fn ln(y: __m256) -> __m256 {
 #[target_feature(enable = "avx2,fma,f16c")]
 fn one_minus_exp_neg(x: __m256) -> __m256 {
     let one = _mm256_set1_ps(1.0);
-    let series = _mm256_mul_ps(x, _mm256_fnmadd_ps(x, _mm256_fnmadd_ps(x, _mm256_set1_ps(1.0 / 6.0), _mm256_set1_ps(0.5)), one));
+    let series =
+        _mm256_mul_ps(x, _mm256_fnmadd_ps(x, _mm256_fnmadd_ps(x, _mm256_set1_ps(1.0 / 6.0), _mm256_set1_ps(0.5)), one));
     let full = _mm256_sub_ps(one, exp_nonpositive(_mm256_sub_ps(_mm256_setzero_ps(), x)));
     _mm256_blendv_ps(full, series, _mm256_cmp_ps::<_CMP_LT_OQ>(x, _mm256_set1_ps(1e-3)))
 }
@@ -782,8 +782,13 @@ pub(super) fn lit_by(texel: &[__m256; 4], light_dir: &[__m256; 3], ambient: __m2
     let lit = _mm256_cmp_ps::<_CMP_GT_OQ>(mag, zero);
     let inv = _mm256_div_ps(one, _mm256_blendv_ps(one, mag, lit));
     let nrm: [__m256; 3] = std::array::from_fn(|c| _mm256_mul_ps(texel[c + 1], inv));
-    let len = _mm256_sqrt_ps(_mm256_fmadd_ps(nrm[0], nrm[0], _mm256_fmadd_ps(nrm[1], nrm[1], _mm256_mul_ps(nrm[2], nrm[2]))));
-    let dot = _mm256_fmadd_ps(nrm[0], light_dir[0], _mm256_fmadd_ps(nrm[1], light_dir[1], _mm256_mul_ps(nrm[2], light_dir[2])));
+    let len =
+        _mm256_sqrt_ps(_mm256_fmadd_ps(nrm[0], nrm[0], _mm256_fmadd_ps(nrm[1], nrm[1], _mm256_mul_ps(nrm[2], nrm[2]))));
+    let dot = _mm256_fmadd_ps(
+        nrm[0],
+        light_dir[0],
+        _mm256_fmadd_ps(nrm[1], light_dir[1], _mm256_mul_ps(nrm[2], light_dir[2])),
+    );
     let cos = _mm256_max_ps(_mm256_div_ps(dot, _mm256_blendv_ps(one, len, lit)), zero);
     _mm256_blendv_ps(ambient, _mm256_fmadd_ps(diffuse, cos, ambient), lit)
 }
@@ -897,7 +902,8 @@ pub(super) fn voxel_axes(p: &Params, rays: &super::rays8::Rays, dims: [usize; 3]
         let tc = _mm256_add_ps(_mm256_mul_ps(at, set(p.tex_scale[k])), set(p.tex_offset[k]));
         _mm256_sub_ps(_mm256_mul_ps(tc, set(dims[k] as f32)), set(0.5))
     });
-    let per = std::array::from_fn(|k| _mm256_mul_ps(_mm256_mul_ps(rays.d[k], set(p.tex_scale[k])), set(dims[k] as f32)));
+    let per =
+        std::array::from_fn(|k| _mm256_mul_ps(_mm256_mul_ps(rays.d[k], set(p.tex_scale[k])), set(dims[k] as f32)));
     (start, per)
 }
 
@@ -952,10 +958,8 @@ pub unsafe fn march<T: Texels>(
     let rays = super::rays8::rays(f, col0, row);
     let (start, per) = voxel_axes(p, &rays, dims);
     // A quarter voxel along the axis the ray crosses fastest (compositing.wgsl `whole_segments`).
-    let nudge = _mm256_div_ps(
-        _mm256_set1_ps(0.25),
-        _mm256_max_ps(abs(per[0]), _mm256_max_ps(abs(per[1]), abs(per[2]))),
-    );
+    let nudge =
+        _mm256_div_ps(_mm256_set1_ps(0.25), _mm256_max_ps(abs(per[0]), _mm256_max_ps(abs(per[1]), abs(per[2]))));
     let prefetch = prefetches(&rays, &per, T::UNIT_BYTES * T::PER_TEXEL, dims);
     let (shift, n, limit) = (rays.shift, rays.n, rays.hi);
     let cap = if p.bricked == 1 { limit } else { n };
@@ -1035,9 +1039,7 @@ pub unsafe fn march<T: Texels>(
         let (k, t) = lut_interval(v);
         let at = _mm256_slli_epi32::<2>(k);
         // SAFETY: k <= M - 2, so both entries lie in the table.
-        let (e0, e1) = unsafe {
-            (_mm256_i32gather_ps::<4>(lut.add(3), at), _mm256_i32gather_ps::<4>(lut.add(7), at))
-        };
+        let (e0, e1) = unsafe { (_mm256_i32gather_ps::<4>(lut.add(3), at), _mm256_i32gather_ps::<4>(lut.add(7), at)) };
         _mm256_fmadd_ps(_mm256_sub_ps(e1, e0), t, e0)
     };
     // Lanes whose midpoint sample of value v (not NaN) has opacity 0
@@ -1096,8 +1098,19 @@ pub unsafe fn march<T: Texels>(
         // Rays l and l + 4 share a register ([ray l | ray l + 4]) for the front lerp.
         let pairs: [__m256; 4] = std::array::from_fn(|l| {
             let (a, b) = (along_back(l), along_back(l + 4));
-            let w = _mm256_permutevar8x32_ps(fx, _mm256_setr_epi32(l as i32, l as i32, l as i32, l as i32,
-                l as i32 + 4, l as i32 + 4, l as i32 + 4, l as i32 + 4));
+            let w = _mm256_permutevar8x32_ps(
+                fx,
+                _mm256_setr_epi32(
+                    l as i32,
+                    l as i32,
+                    l as i32,
+                    l as i32,
+                    l as i32 + 4,
+                    l as i32 + 4,
+                    l as i32 + 4,
+                    l as i32 + 4,
+                ),
+            );
             lerp(_mm256_permute2f128_ps::<0x20>(a, b), _mm256_permute2f128_ps::<0x31>(a, b), w)
         });
         transpose_pairs(&pairs)
@@ -1257,10 +1270,8 @@ pub unsafe fn march<T: Texels>(
                     let exit = cells.exit(&cell, radius);
                     far = _mm256_blendv_ps(far, _mm256_add_ps(_mm256_add_ps(far, nudge), exit), walking);
                 }
-                let kf = _mm256_floor_ps(_mm256_sub_ps(
-                    _mm256_div_ps(far, h),
-                    _mm256_add_ps(shift, _mm256_set1_ps(1e-3)),
-                ));
+                let kf =
+                    _mm256_floor_ps(_mm256_sub_ps(_mm256_div_ps(far, h), _mm256_add_ps(shift, _mm256_set1_ps(1e-3))));
                 // Segment i must lie inside.
                 let inside = _mm256_cmp_ps::<_CMP_GE_OQ>(kf, lowest);
                 leap = _mm256_and_ps(leap, inside);
@@ -1357,15 +1368,23 @@ pub unsafe fn march<T: Texels>(
             let nothing = f.preint.is_none() && _mm256_movemask_ps(_mm256_andnot_ps(clear_lanes, fetch)) == 0;
             let sub_nothing = refine > 0 && _mm256_movemask_ps(_mm256_andnot_ps(clear_lanes, in_sub)) == 0;
             let dark = nothing || (sub_nothing && _mm256_movemask_ps(_mm256_andnot_ps(in_sub, fetch)) == 0);
-            let light = if scatters || dark { one } else { sample_light(f, tex, &rays, &u, &texel, at, &hi, &stride, rows.as_ref()) };
+            let light = if scatters || dark {
+                one
+            } else {
+                sample_light(f, tex, &rays, &u, &texel, at, &hi, &stride, rows.as_ref())
+            };
             // The midpoint rule (every segment of a plain frame, the shorter
             // end segments of a pre-integrated one): optical depth and colour.
             let midpoint = |seg: __m256| -> (__m256, [__m256; 3]) {
                 let rgba = lut_entry(_mm256_and_ps(v, valid));
                 let sigma = _mm256_and_ps(rgba[3], valid);
                 let sigma = if f.power { _mm256_and_ps(neg_log_one_minus(sigma), valid) } else { sigma };
-                let seen = _mm256_and_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(sigma, zero), _mm256_cmp_ps::<_CMP_GT_OQ>(seg, zero));
-                let x = _mm256_and_ps(_mm256_min_ps(_mm256_mul_ps(sigma, _mm256_mul_ps(seg, seg_unit)), _mm256_set1_ps(1.0e30)), seen);
+                let seen =
+                    _mm256_and_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(sigma, zero), _mm256_cmp_ps::<_CMP_GT_OQ>(seg, zero));
+                let x = _mm256_and_ps(
+                    _mm256_min_ps(_mm256_mul_ps(sigma, _mm256_mul_ps(seg, seg_unit)), _mm256_set1_ps(1.0e30)),
+                    seen,
+                );
                 if !emits {
                     return (x, [zero; 3]);
                 }
@@ -1411,7 +1430,8 @@ pub unsafe fn march<T: Texels>(
                         // midpoint samples, starting with the next visit.
                         let centre = _mm256_mul_ps(_mm256_set1_ps(0.5), _mm256_add_ps(held_v, v));
                         let change = variation(_mm256_sub_ps(centre, reach), _mm256_add_ps(centre, reach), table);
-                        let starts = _mm256_and_ps(whole, _mm256_cmp_ps::<_CMP_GT_OQ>(change, _mm256_set1_ps(REFINE_EPS)));
+                        let starts =
+                            _mm256_and_ps(whole, _mm256_cmp_ps::<_CMP_GT_OQ>(change, _mm256_set1_ps(REFINE_EPS)));
                         sub_at = _mm256_castps_si256(_mm256_blendv_ps(as_ps(sub_at), as_ps(i), starts));
                         sub = _mm256_castps_si256(_mm256_blendv_ps(as_ps(sub), as_ps(onei), starts));
                         sub_x = _mm256_andnot_ps(starts, sub_x);
@@ -1423,7 +1443,8 @@ pub unsafe fn march<T: Texels>(
                         let (xm, addm) = if sub_nothing { (zero, [zero; 3]) } else { midpoint(piece) };
                         let behind = exp_nonpositive(_mm256_sub_ps(zero, sub_x));
                         for c in 0..3 {
-                            sub_add[c] = _mm256_blendv_ps(sub_add[c], _mm256_fmadd_ps(behind, addm[c], sub_add[c]), in_sub);
+                            sub_add[c] =
+                                _mm256_blendv_ps(sub_add[c], _mm256_fmadd_ps(behind, addm[c], sub_add[c]), in_sub);
                         }
                         sub_x = _mm256_blendv_ps(sub_x, _mm256_add_ps(sub_x, xm), in_sub);
                         let last = _mm256_and_ps(in_sub, as_ps(_mm256_cmpeq_epi32(sub, _mm256_set1_epi32(refine))));
@@ -1464,7 +1485,8 @@ pub unsafe fn march<T: Texels>(
         // extinction, up to where the ray would stop early.
         let (mut x, mut add) = (x, add);
         let mut advance = onei;
-        let run = _mm256_and_ps(_mm256_and_ps(uniform, blend), _mm256_and_ps(full, _mm256_cmp_ps::<_CMP_GT_OQ>(x, zero)));
+        let run =
+            _mm256_and_ps(_mm256_and_ps(uniform, blend), _mm256_and_ps(full, _mm256_cmp_ps::<_CMP_GT_OQ>(x, zero)));
         if _mm256_movemask_ps(run) != 0 {
             let last = _mm256_cvtepi32_ps(_mm256_max_epi32(_mm256_sub_epi32(n, onei), zi));
             let mut k = _mm256_sub_ps(_mm256_min_ps(_mm256_cvtepi32_ps(next), last), _mm256_cvtepi32_ps(i));
@@ -1494,7 +1516,8 @@ pub unsafe fn march<T: Texels>(
         // Partial sums of 2^8 samples (shadow samples included) folded into the totals.
         taken = _mm256_add_epi32(taken, shadow_taken);
         let block = _mm256_srli_epi32::<8>(taken);
-        let fold = _mm256_and_ps(blend, _mm256_xor_ps(as_ps(_mm256_cmpeq_epi32(block, blocks)), as_ps(_mm256_set1_epi32(-1))));
+        let fold =
+            _mm256_and_ps(blend, _mm256_xor_ps(as_ps(_mm256_cmpeq_epi32(block, blocks)), as_ps(_mm256_set1_epi32(-1))));
         if _mm256_movemask_ps(fold) != 0 {
             blocks = _mm256_castps_si256(_mm256_blendv_ps(as_ps(blocks), as_ps(block), fold));
             for c in 0..3 {
@@ -1591,7 +1614,12 @@ impl CellRows {
     /// Needs AVX2, FMA and F16C, and `tex` the padding its reads need.
     #[inline]
     #[target_feature(enable = "avx2,fma,f16c")]
-    pub(super) unsafe fn read<T: Texels>(tex: &T, u: &[__m256; 3], hi: &[__m256i; 3], stride: &[__m256i; 3]) -> Option<CellRows> {
+    pub(super) unsafe fn read<T: Texels>(
+        tex: &T,
+        u: &[__m256; 3],
+        hi: &[__m256i; 3],
+        stride: &[__m256i; 3],
+    ) -> Option<CellRows> {
         let (zi, onei) = (_mm256_setzero_si256(), _mm256_set1_epi32(1));
         if !T::VALUES_ONLY {
             return None;
@@ -1616,7 +1644,8 @@ impl CellRows {
         let mut rows = [[[_mm256_setzero_ps(); 3]; 2]; 2];
         for (a, j0) in [1, 2].into_iter().enumerate() {
             for (c, j1) in [1, 2].into_iter().enumerate() {
-                let from = _mm256_sub_epi32(_mm256_add_epi32(_mm256_add_epi32(along[0][j0], along[1][j1]), last), stride[2]);
+                let from =
+                    _mm256_sub_epi32(_mm256_add_epi32(_mm256_add_epi32(along[0][j0], along[1][j1]), last), stride[2]);
                 // SAFETY: the offsets address texels (the caller's
                 // contract), and texels b - 1 to b + 2 exist along the last axis.
                 let t = unsafe { tex.value_quad(from) };
@@ -1793,8 +1822,16 @@ mod tests {
         // SAFETY: the caller checked AVX2, FMA and F16C.
         unsafe {
             let lane = |l: i32| if hits & (1 << l) != 0 { -1 } else { 0 };
-            let hit = _mm256_castsi256_ps(_mm256_setr_epi32(lane(0), lane(1), lane(2), lane(3), lane(4), lane(5),
-                                                              lane(6), lane(7)));
+            let hit = _mm256_castsi256_ps(_mm256_setr_epi32(
+                lane(0),
+                lane(1),
+                lane(2),
+                lane(3),
+                lane(4),
+                lane(5),
+                lane(6),
+                lane(7),
+            ));
             let rays = super::super::rays8::Rays {
                 d: [_mm256_setzero_ps(); 3],
                 t0: _mm256_set1_ps(2.0),
@@ -1823,7 +1860,7 @@ mod tests {
         assert!(!prefetch_for(0.2, 0xff, 8, big)); // 0.6 voxels: 4.8 bytes
         assert!(!prefetch_for(0.5, 0xff, 2, big)); // 3 bytes
         assert!(prefetch_for(1.5, 0xff, 2, big)); // 9 bytes
-        // The first two neighbouring rays that hit the box decide.
+                                                  // The first two neighbouring rays that hit the box decide.
         assert!(prefetch_for(0.5, 0b0110_0000, 8, big));
         assert!(!prefetch_for(0.5, 0b0101_0101, 8, big));
         // 2 MiB of texels stay in the caches; 16 MiB do not.
@@ -1870,9 +1907,8 @@ mod tests {
             // SAFETY: AVX2, FMA and F16C are available; the corners are clamped into the volume.
             let (got, want) = unsafe {
                 let u = u.map(|x| _mm256_loadu_ps(x.as_ptr()));
-                let corners_for = |t: &dyn Fn([usize; 3]) -> [i32; 3]| {
-                    corners(&u, &hi, &t(dims).map(|s| _mm256_set1_epi32(s)))
-                };
+                let corners_for =
+                    |t: &dyn Fn([usize; 3]) -> [i32; 3]| corners(&u, &hi, &t(dims).map(|s| _mm256_set1_epi32(s)));
                 let (a, b) = (corners_for(&|d| apart.strides(d)), corners_for(&|d| whole.strides(d)));
                 (apart.trilinear(&a.0, &a.1).map(|x| lanes(x)), whole.trilinear(&b.0, &b.1).map(|x| lanes(x)))
             };

@@ -145,7 +145,10 @@ mod tests {
                             .collect();
                         if clear.segment_clear(x0, y0) {
                             called += 1;
-                            assert!(corners.iter().all(|e| *e == [0.0; 4]), "n {n} len {len}: ({x0}, {y0}) {corners:?}");
+                            assert!(
+                                corners.iter().all(|e| *e == [0.0; 4]),
+                                "n {n} len {len}: ({x0}, {y0}) {corners:?}"
+                            );
                         } else if corners[0][3] > 0.0 {
                             crossing += 1;
                         }

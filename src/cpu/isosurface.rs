@@ -8,8 +8,8 @@
 //! or a point light).
 
 use super::avx2::{
-    channel, corners, gradient_at, int_lanes, lanes, lanes_of, lit_by, point_light_travel, truncated_here, voxel_axes, Spans,
-    Texels,
+    channel, corners, gradient_at, int_lanes, lanes, lanes_of, lit_by, point_light_travel, truncated_here, voxel_axes,
+    Spans, Texels,
 };
 use super::{Frame, Stats, TILE};
 use crate::plan::ISO_BISECTIONS;
@@ -97,7 +97,8 @@ pub unsafe fn iso<T: Texels>(
     let mut open = rays.hit;
     if let Some(before) = stopped_before.as_deref() {
         let column = |c: usize| channel(out, c);
-        open = _mm256_andnot_ps(lanes_of(*before), _mm256_and_ps(rays.hit, as_ps(_mm256_cmpgt_epi32(rays.hi, rays.lo))));
+        open =
+            _mm256_andnot_ps(lanes_of(*before), _mm256_and_ps(rays.hit, as_ps(_mm256_cmpgt_epi32(rays.hi, rays.lo))));
         let was_started = _mm256_cmp_ps::<_CMP_NEQ_UQ>(column(3), zero);
         let entry = _mm256_andnot_ps(was_started, _mm256_and_ps(open, as_ps(_mm256_cmpeq_epi32(rays.lo, zi))));
         let resumed = _mm256_andnot_ps(entry, open);

@@ -41,8 +41,8 @@ mod rays8;
 #[cfg(target_arch = "x86_64")]
 mod tracking;
 
-use crate::plan::Params;
 use crate::occupancy::BLOCK;
+use crate::plan::Params;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 /// The volume's texels as the GPU path's texture holds them (numpy axis
@@ -432,7 +432,11 @@ impl RayStates {
 
     /// An isosurface's hit distance of pixel i (infinity on a miss).
     pub fn depth(&self, i: usize) -> f32 {
-        if self.stopped(i) { self.state[i][3] } else { f32::INFINITY }
+        if self.stopped(i) {
+            self.state[i][3]
+        } else {
+            f32::INFINITY
+        }
     }
 
     /// Pixel i's premultiplied (colour, alpha) under `model` and the
@@ -466,15 +470,18 @@ impl RayStates {
 /// absorption and emission frames (marched front to back but for unbiased
 /// ones, whose bricks come far to near for back-to-front frames), the
 /// projections and the isosurface. Interrupted as `render`.
-pub fn render_brick(frame: &Frame, states: &mut RayStates, stop: &mut dyn FnMut() -> bool) -> Result<Stats, Interrupted> {
+pub fn render_brick(
+    frame: &Frame,
+    states: &mut RayStates,
+    stop: &mut dyn FnMut() -> bool,
+) -> Result<Stats, Interrupted> {
     let p = frame.params;
     let (w, h) = (p.width as usize, p.height as usize);
     assert_eq!(states.size(), (w, h), "ray states' size");
     assert!(p.bricked == 1, "a brick's block");
     let models = [Model::EmissionAbsorption, Model::Absorption, Model::Emission];
-    let covered = frame.model.projects()
-        || frame.model == Model::Isosurface
-        || models.contains(&frame.model) && !frame.scatter;
+    let covered =
+        frame.model.projects() || frame.model == Model::Isosurface || models.contains(&frame.model) && !frame.scatter;
     assert!(covered, "bricked frames' models");
     check(frame);
     let clear = clear::Clear::new(frame.lut, frame.preint.map(|t| (&t.texels[..], t.side)));
@@ -742,7 +749,11 @@ impl Ray {
         let lo = if a0 > self.t0 { segment_at(a0) } else { 0 };
         let hi = if a1 < t1 { segment_at(a1) } else { self.n };
         let (lo, hi) = (lo.min(self.n), hi.min(self.n));
-        if hi <= lo { (0, 0) } else { (lo, hi) }
+        if hi <= lo {
+            (0, 0)
+        } else {
+            (lo, hi)
+        }
     }
 
     /// skipping.wgsl `occupied_window`, in numpy axis order.

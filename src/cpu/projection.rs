@@ -140,8 +140,11 @@ pub unsafe fn project<T: Texels>(
                 let kept = if mip { _mm256_max_ps(best, v) } else { _mm256_min_ps(best, v) };
                 best = _mm256_blendv_ps(best, _mm256_blendv_ps(v, kept, seen), valid);
                 seen = _mm256_or_ps(seen, valid);
-                let done =
-                    if mip { _mm256_cmp_ps::<_CMP_GE_OQ>(best, set(1.0)) } else { _mm256_cmp_ps::<_CMP_LE_OQ>(best, zero) };
+                let done = if mip {
+                    _mm256_cmp_ps::<_CMP_GE_OQ>(best, set(1.0))
+                } else {
+                    _mm256_cmp_ps::<_CMP_LE_OQ>(best, zero)
+                };
                 stopped = _mm256_or_ps(stopped, _mm256_and_ps(valid, done));
             }
         }

@@ -137,7 +137,14 @@ pub unsafe fn rays(frame: &Frame, col0: u32, row: u32) -> Rays {
 /// entry `t0` and exit `t1`; (0, 0) where there are none.
 #[inline]
 #[target_feature(enable = "avx2,fma,f16c")]
-fn brick_window(p: &crate::plan::params::Params, d: &[__m256; 3], t0: __m256, t1: __m256, shift: __m256, n: __m256i) -> (__m256i, __m256i) {
+fn brick_window(
+    p: &crate::plan::params::Params,
+    d: &[__m256; 3],
+    t0: __m256,
+    t1: __m256,
+    shift: __m256,
+    n: __m256i,
+) -> (__m256i, __m256i) {
     let set = _mm256_set1_ps;
     let zero = _mm256_setzero_ps();
     let (mut a0, mut a1, mut outside) = (t0, t1, zero);
@@ -157,13 +164,19 @@ fn brick_window(p: &crate::plan::params::Params, d: &[__m256; 3], t0: __m256, t1
     let nf = _mm256_cvtepi32_ps(n);
     // main.wgsl `segment_at`, clamped to the ray's n.
     let segment_at = |t: __m256| {
-        let k = _mm256_ceil_ps(_mm256_sub_ps(_mm256_sub_ps(_mm256_div_ps(_mm256_sub_ps(t, t0), set(p.step_size)), shift), set(0.5)));
+        let k = _mm256_ceil_ps(_mm256_sub_ps(
+            _mm256_sub_ps(_mm256_div_ps(_mm256_sub_ps(t, t0), set(p.step_size)), shift),
+            set(0.5),
+        ));
         _mm256_cvttps_epi32(_mm256_min_ps(_mm256_max_ps(k, zero), nf))
     };
     let lo = _mm256_and_si256(segment_at(a0), _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GT_OQ>(a0, t0)));
     let hi = _mm256_blendv_epi8(n, segment_at(a1), _mm256_castps_si256(_mm256_cmp_ps::<_CMP_LT_OQ>(a1, t1)));
     // No segments here: the ray waits for its other bricks.
-    let empty = _mm256_or_si256(_mm256_castps_si256(outside), _mm256_cmpgt_epi32(_mm256_add_epi32(lo, _mm256_set1_epi32(1)), hi));
+    let empty = _mm256_or_si256(
+        _mm256_castps_si256(outside),
+        _mm256_cmpgt_epi32(_mm256_add_epi32(lo, _mm256_set1_epi32(1)), hi),
+    );
     (_mm256_andnot_si256(empty, lo), _mm256_andnot_si256(empty, hi))
 }
 

@@ -8,8 +8,8 @@ use super::avx2::{
     channel, corners, exp_nonpositive, lanes_of, leave_composited, ln, lut_rgba, neg_log_one_minus, sample_light,
     voxel_axes, Spans, Texels,
 };
-use super::rays8::hash32;
 use super::cells::byte;
+use super::rays8::hash32;
 use super::{Frame, Model, Stats, TILE};
 use crate::occupancy::UNIFORM_FLAG;
 use std::arch::x86_64::*;
@@ -162,12 +162,14 @@ pub unsafe fn track<T: Texels>(
     // skip_to (in that direction) passed. Back to front, the blocks and
     // their points are taken from the far end.
     let w_lo = spans.span(rays.lo).0;
-    let (mut k, mut state) = (_mm256_srl_epi32(if back { _mm256_sub_epi32(rays.hi, onei) } else { rays.lo }, shift_v), zi);
+    let (mut k, mut state) =
+        (_mm256_srl_epi32(if back { _mm256_sub_epi32(rays.hi, onei) } else { rays.lo }, shift_v), zi);
     let (mut bstart, mut blen, mut rate, mut u) = (zero, zero, zero, zero);
     let mut skip_to = if back { w_hi } else { w_lo };
     let first_block = _mm256_srl_epi32(rays.lo, shift_v);
     let mut entered = zero;
-    let mut done = _mm256_or_ps(_mm256_xor_ps(rays.hit, yes), as_ps(_mm256_cmpgt_epi32(_mm256_add_epi32(rays.lo, onei), rays.hi)));
+    let mut done =
+        _mm256_or_ps(_mm256_xor_ps(rays.hit, yes), as_ps(_mm256_cmpgt_epi32(_mm256_add_epi32(rays.lo, onei), rays.hi)));
     // The sums (compositing.wgsl `Integration`).
     let (mut color, mut color_b) = ([zero; 3], [zero; 3]);
     let (mut tau, mut tau_b, mut trans) = (zero, zero, one);
@@ -285,7 +287,8 @@ pub unsafe fn track<T: Texels>(
                     _mm256_fnmadd_ps(set(1e-3), h, _mm256_add_ps(at, exit))
                 };
                 skip_to = _mm256_blendv_ps(skip_to, landing, leap);
-                let next = if back { _mm256_min_epi32(block_at(skip_to), k) } else { _mm256_max_epi32(block_at(skip_to), k) };
+                let next =
+                    if back { _mm256_min_epi32(block_at(skip_to), k) } else { _mm256_max_epi32(block_at(skip_to), k) };
                 let moved = _mm256_andnot_ps(as_ps(_mm256_cmpeq_epi32(next, k)), leap);
                 k = as_si(_mm256_blendv_ps(as_ps(k), as_ps(next), moved));
                 entered = _mm256_andnot_ps(moved, entered);
@@ -334,7 +337,10 @@ pub unsafe fn track<T: Texels>(
         trans = _mm256_andnot_ps(faded, trans);
         let mut stop = faded;
         if f.early_termination {
-            let seen = _mm256_and_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(total, zero), _mm256_cmp_ps::<_CMP_GE_OQ>(_mm256_sub_ps(one, trans), set(p.threshold)));
+            let seen = _mm256_and_ps(
+                _mm256_cmp_ps::<_CMP_GT_OQ>(total, zero),
+                _mm256_cmp_ps::<_CMP_GE_OQ>(_mm256_sub_ps(one, trans), set(p.threshold)),
+            );
             stop = _mm256_or_ps(stop, _mm256_and_ps(live, seen));
         }
         if any(stop) {

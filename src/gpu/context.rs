@@ -55,9 +55,9 @@ fn requested_backends() -> Result<wgpu::Backends, Error> {
             "metal" => Ok(wgpu::Backends::METAL),
             "dx12" => Ok(wgpu::Backends::DX12),
             "gl" | "gles" => Ok(wgpu::Backends::GL),
-            other => Err(Error::InvalidInput(format!(
-                "PYVR_BACKEND must be one of vulkan, metal, dx12, gl; got '{other}'"
-            ))),
+            other => {
+                Err(Error::InvalidInput(format!("PYVR_BACKEND must be one of vulkan, metal, dx12, gl; got '{other}'")))
+            }
         };
     }
     Ok(wgpu::Backends::from_env().unwrap_or(wgpu::Backends::PRIMARY))

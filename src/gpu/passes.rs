@@ -6,8 +6,8 @@
 //! dispatches, so long rays are marched over several passes, their state
 //! kept per pixel in between.
 
-use crate::error::Error;
 use crate::config::RenderConfig;
+use crate::error::Error;
 use crate::model::Model;
 use crate::scene::Bounds;
 use glam::DVec3;

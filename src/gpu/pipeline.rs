@@ -5,9 +5,9 @@
 
 use super::bindings;
 use super::context::GpuContext;
-use crate::error::Error;
 use super::shader;
 use crate::config::{OpacityCorrection, RenderConfig};
+use crate::error::Error;
 use crate::model::{Model, Order};
 use crate::scene::{LightKind, Shading};
 use std::collections::HashMap;
@@ -78,7 +78,9 @@ pub struct Variant {
 /// Whether rays march from the far end: only where the order changes the
 /// arithmetic (absorption and emission sums do not depend on it).
 pub fn marches_back_to_front(cfg: &RenderConfig) -> bool {
-    cfg.order == Order::BackToFront && cfg.model.integrates() && !matches!(cfg.model, Model::Absorption | Model::Emission)
+    cfg.order == Order::BackToFront
+        && cfg.model.integrates()
+        && !matches!(cfg.model, Model::Absorption | Model::Emission)
 }
 
 impl Variant {

@@ -29,7 +29,9 @@ pub fn read_buffers<R>(
     let result = {
         let mut views = Vec::with_capacity(buffers.len());
         for b in buffers {
-            views.push(b.slice(..).get_mapped_range().map_err(|e| Error::Gpu(format!("reading {what} back failed: {e}")))?);
+            views.push(
+                b.slice(..).get_mapped_range().map_err(|e| Error::Gpu(format!("reading {what} back failed: {e}")))?,
+            );
         }
         let slices: Vec<&[u8]> = views.iter().map(|v| &v[..]).collect();
         read(&slices)

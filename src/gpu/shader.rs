@@ -4,10 +4,10 @@
 //! declaration order, and no preprocessor is involved).
 
 use super::bindings;
-use crate::plan::{ISO_BISECTIONS, PROJECTION_REACH};
 use crate::integrate::SHADOW_TAU_MAX;
 use crate::model::Model;
 use crate::occupancy::{BLOCK, UNIFORM_FLAG};
+use crate::plan::{ISO_BISECTIONS, PROJECTION_REACH};
 use crate::preintegrate;
 use crate::scene::Shading;
 use std::fmt::Write;
@@ -37,7 +37,9 @@ pub fn prelude() -> String {
     for m in Model::ALL {
         let _ = writeln!(s, "const MODEL_{}: u32 = {}u;", upper_snake(m.name()), m.code());
     }
-    for (name, sh) in [("AMBIENT_ONLY", Shading::AmbientOnly), ("NORMALS", Shading::Normals), ("GRADIENT", Shading::Gradient)] {
+    for (name, sh) in
+        [("AMBIENT_ONLY", Shading::AmbientOnly), ("NORMALS", Shading::Normals), ("GRADIENT", Shading::Gradient)]
+    {
         let _ = writeln!(s, "const SHADING_{name}: u32 = {}u;", sh.code());
     }
     let _ = writeln!(s, "// Voxels per occupancy cell along each axis.");

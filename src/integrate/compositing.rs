@@ -13,7 +13,14 @@ use crate::transfer::eval_lut;
 /// rule: its optical depth and the premultiplied colour it adds before
 /// attenuation by what lies in front; `None` when empty (NaN, zero opacity).
 /// `v` is the value at the midpoint, when already known.
-fn midpoint_piece(frame: &Frame, shading: Shading, ray: &Ray, lo: f64, len: f64, v: Option<f64>) -> Option<(f64, [f64; 3])> {
+fn midpoint_piece(
+    frame: &Frame,
+    shading: Shading,
+    ray: &Ray,
+    lo: f64,
+    len: f64,
+    v: Option<f64>,
+) -> Option<(f64, [f64; 3])> {
     let cfg = &frame.config;
     let p = ray.at(lo + 0.5 * len);
     let v = v.unwrap_or_else(|| value(frame, p));
@@ -72,7 +79,16 @@ pub const MAX_PIECES: usize = 1 << 12;
 /// `Frame`), until none does, the pieces are 2^-24 of the segment, or there
 /// are MAX_PIECES of them.
 #[allow(clippy::too_many_arguments)]
-fn split(frame: &Frame, shading: Shading, ray: &Ray, lo: f64, len: f64, vf: f64, vb: f64, out: &mut Vec<(f64, [f64; 3])>) {
+fn split(
+    frame: &Frame,
+    shading: Shading,
+    ray: &Ray,
+    lo: f64,
+    len: f64,
+    vf: f64,
+    vb: f64,
+    out: &mut Vec<(f64, [f64; 3])>,
+) {
     // (start, length, front value, back value, midpoint value, final)
     let mut pieces = vec![(lo, len, vf, vb, value(frame, ray.at(lo + 0.5 * len)), false)];
     for depth in 0..=24 {
@@ -82,7 +98,10 @@ fn split(frame: &Frame, shading: Shading, ray: &Ray, lo: f64, len: f64, vf: f64,
         for &(lo, len, vf, vb, vm, done) in &pieces {
             let vals = [vf, vm, vb];
             let finite = vals.iter().all(|v| !v.is_nan());
-            let (a, b) = (vals.iter().cloned().fold(f64::INFINITY, f64::min), vals.iter().cloned().fold(f64::NEG_INFINITY, f64::max));
+            let (a, b) = (
+                vals.iter().cloned().fold(f64::INFINITY, f64::min),
+                vals.iter().cloned().fold(f64::NEG_INFINITY, f64::max),
+            );
             let coarse = done
                 || !finite
                 || depth >= 24
@@ -174,8 +193,9 @@ fn segment(frame: &Frame, shading: Shading, ray: &Ray, i: u64, out: &mut Vec<(f6
         let r = preintegrate::segment(frame.lut, vf, vb, seg / cfg.reference_step_size, cfg.opacity_correction, k);
         if r[3] > 0.0 {
             // The mean of the light at the two ends, where the values are read.
-            let light = 0.5 * (intensity(frame, shading, ray.at(lo), ray.dir)
-                + intensity(frame, shading, ray.at(lo + seg), ray.dir));
+            let light = 0.5
+                * (intensity(frame, shading, ray.at(lo), ray.dir)
+                    + intensity(frame, shading, ray.at(lo + seg), ray.dir));
             out.push((r[3], [r[0] * light, r[1] * light, r[2] * light]));
         }
         return;

@@ -13,8 +13,8 @@ use crate::config::RenderConfig;
 use crate::error::{try_vec, Error};
 use crate::model::jitter_shift;
 pub use crate::model::Order;
-use crate::scene::{Camera, Light};
 use crate::scene::Bounds;
+use crate::scene::{Camera, Light};
 use crate::transfer::ValueMap;
 use crate::volume::VolumeView;
 use glam::DVec3;
@@ -57,8 +57,11 @@ pub fn voxel_slopes(volume: &VolumeView) -> [f64; 3] {
         for j in 0..n1 {
             for k in 0..n2 {
                 let here = v(i, j, k);
-                let next = [(i + 1 < n0).then(|| v(i + 1, j, k)), (j + 1 < n1).then(|| v(i, j + 1, k)),
-                            (k + 1 < n2).then(|| v(i, j, k + 1))];
+                let next = [
+                    (i + 1 < n0).then(|| v(i + 1, j, k)),
+                    (j + 1 < n1).then(|| v(i, j + 1, k)),
+                    (k + 1 < n2).then(|| v(i, j, k + 1)),
+                ];
                 for (a, n) in next.into_iter().enumerate() {
                     if let Some(d) = n.map(|n| (n - here).abs()).filter(|d| !d.is_nan()) {
                         out[a] = out[a].max(d);
@@ -104,8 +107,8 @@ mod tests;
 
 use compositing::integrate;
 pub use lighting::light_transmittance;
-use projections::{isosurface, project};
 pub use optics::{corrected_alpha, extinction, max_extinction, one_minus_exp_neg, SHADOW_TAU_MAX};
+use projections::{isosurface, project};
 
 /// Segments a chord of `len` needs when the grid starts `shift` steps
 /// before its entry: `ceil(len / step - shift)`.
@@ -114,7 +117,11 @@ pub fn segments_needed(len: f64, step: f64, shift: f64) -> u64 {
         return 0;
     }
     let n = (len / step - shift).ceil();
-    if n >= u64::MAX as f64 { u64::MAX } else { n as u64 }
+    if n >= u64::MAX as f64 {
+        u64::MAX
+    } else {
+        n as u64
+    }
 }
 
 /// One ray's chord and its segment grid.
@@ -153,7 +160,11 @@ impl Ray {
     }
 
     fn truncated(&self) -> u64 {
-        if self.n < self.needed { self.needed } else { 0 }
+        if self.n < self.needed {
+            self.needed
+        } else {
+            0
+        }
     }
 }
 

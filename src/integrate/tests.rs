@@ -32,7 +32,12 @@ fn homogeneous_cube_matches_beer_lambert_at_every_step() {
     let data = [0.5f32; 64];
     let lut = [[0.8f32, 0.4, 0.2, 0.3], [0.8, 0.4, 0.2, 0.3]];
     for step in [0.05, 0.02, 0.01, 0.005, 0.001, 0.3, 0.77, 2.0] {
-        let mut cfg = RenderConfig { step_size: step, max_steps: 100_000, early_ray_termination: false, ..RenderConfig::default() };
+        let mut cfg = RenderConfig {
+            step_size: step,
+            max_steps: 100_000,
+            early_ray_termination: false,
+            ..RenderConfig::default()
+        };
         cfg.opacity_threshold = 1.0;
         let f = constant_frame(&data, &lut, cfg);
         let r = integrate_ray(&f, DVec3::new(3.0, 0.0, 0.0), -DVec3::X);
@@ -47,7 +52,8 @@ fn homogeneous_cube_matches_beer_lambert_at_every_step() {
 fn power_form_matches_its_closed_form() {
     let data = [0.5f32; 64];
     let lut = [[1.0f32, 1.0, 1.0, 0.1]; 2];
-    let mut cfg = RenderConfig { step_size: 0.003, max_steps: 100_000, early_ray_termination: false, ..RenderConfig::default() };
+    let mut cfg =
+        RenderConfig { step_size: 0.003, max_steps: 100_000, early_ray_termination: false, ..RenderConfig::default() };
     cfg.opacity_correction = OpacityCorrection::Power;
     let f = constant_frame(&data, &lut, cfg);
     let r = integrate_ray(&f, DVec3::new(3.0, 0.0, 0.0), -DVec3::X);
@@ -74,7 +80,8 @@ fn truncation_and_early_termination_are_reported() {
 #[test]
 fn back_to_front_equals_front_to_back() {
     let data: Vec<f32> = (0..64).map(|i| ((i * 37) % 64) as f32 / 63.0).collect();
-    let lut: Vec<[f32; 4]> = (0..16).map(|i| [i as f32 / 15.0, 0.3, 1.0 - i as f32 / 15.0, 0.4 * i as f32 / 15.0]).collect();
+    let lut: Vec<[f32; 4]> =
+        (0..16).map(|i| [i as f32 / 15.0, 0.3, 1.0 - i as f32 / 15.0, 0.4 * i as f32 / 15.0]).collect();
     let cfg = RenderConfig { step_size: 0.013, early_ray_termination: false, ..RenderConfig::default() };
     let mut f = constant_frame(&data, &lut, cfg);
     f.light = Light::default();
@@ -102,14 +109,17 @@ fn midpoint_rule_converges_at_second_order() {
             (-(c(i).powi(2) + (c(j) - 0.1).powi(2) + c(k).powi(2)) * 8.0).exp() as f32
         })
         .collect();
-    let lut: Vec<[f32; 4]> = (0..256).map(|i| {
-        let s = i as f32 / 255.0;
-        [s, 1.0 - s, 0.5, 0.5 * s]
-    }).collect();
+    let lut: Vec<[f32; 4]> = (0..256)
+        .map(|i| {
+            let s = i as f32 / 255.0;
+            [s, 1.0 - s, 0.5, 0.5 * s]
+        })
+        .collect();
     let vol = VolumeView::new([n, n, n], Voxels::F32(&data), None, Bounds::default()).unwrap();
     let dir = DVec3::new(-1.0, 0.13, 0.07).normalize();
     let ray = |h: f64| {
-        let cfg = RenderConfig { step_size: h, max_steps: 1 << 30, early_ray_termination: false, ..RenderConfig::default() };
+        let cfg =
+            RenderConfig { step_size: h, max_steps: 1 << 30, early_ray_termination: false, ..RenderConfig::default() };
         integrate_ray(&ambient_frame(vol, &lut, cfg), DVec3::new(3.0, 0.0, 0.0), dir).rgba
     };
     let reference = ray(0.04 / 64.0);

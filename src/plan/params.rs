@@ -9,7 +9,7 @@ use crate::bricks::BrickGrid;
 use crate::config::RenderConfig;
 use crate::occupancy::BLOCK;
 use crate::preintegrate;
-use crate::scene::{Bounds, RayBasis, Light, LightKind};
+use crate::scene::{Bounds, Light, LightKind, RayBasis};
 use crate::transfer::ValueMap;
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;

@@ -1,11 +1,11 @@
 //! `pyvr.config.RenderConfig`: a Rust class with pyvr 0.4.1's fields,
 //! defaults, presets, messages and repr.
 
+use super::args::{integer, real, FromArg};
+use super::errors::to_py;
 use crate::config::{OpacityCorrection, Preset, RenderConfig};
 use crate::model::{Model, Order};
 use pyo3::exceptions::PyUserWarning;
-use super::args::{integer, real, FromArg};
-use super::errors::to_py;
 use pyo3::prelude::*;
 use pyo3::types::PyType;
 use std::ffi::CString;
@@ -58,9 +58,7 @@ fn seed(v: &Bound<'_, PyAny>) -> PyResult<u32> {
 
 fn preset(cls: &Bound<'_, PyType>, p: Preset) -> PyResult<Py<PyAny>> {
     let c = RenderConfig::preset(p);
-    Ok(cls
-        .call1((c.step_size, c.max_steps, c.early_ray_termination, c.opacity_threshold))?
-        .unbind())
+    Ok(cls.call1((c.step_size, c.max_steps, c.early_ray_termination, c.opacity_threshold))?.unbind())
 }
 
 /// The `#[pymethods]` block, with a getter and a setter generated for each

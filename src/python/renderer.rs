@@ -3,20 +3,20 @@
 //! (C-contiguous arrays of a supported dtype, plain tuples), but everything
 //! is checked again here: bad input is a ValueError/TypeError, never a panic.
 
-use super::config::PyRenderConfig;
-use crate::error::{try_collect, try_zeroed};
-use crate::output::{Format, Image, Pixels};
 use super::args::integer;
+use super::config::PyRenderConfig;
 use super::errors::{guarded, run_released, to_py, to_py_in};
-use crate::renderer::Renderer;
+use crate::error::{try_collect, try_zeroed};
 use crate::integrate::{self, Frame};
+use crate::output::{Format, Image, Pixels};
+use crate::renderer::Renderer;
 use crate::scene::{Bounds, Camera, Light, LightKind};
 use crate::transfer::ValueMap;
 use crate::volume::{Precision, VolumeView, Voxels};
 use glam::DVec3;
 use numpy::{
-    PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray2, PyReadonlyArray3, PyReadonlyArray4, PyReadwriteArray3,
-    PyUntypedArrayMethods,
+    PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray2, PyReadonlyArray3, PyReadonlyArray4,
+    PyReadwriteArray3, PyUntypedArrayMethods,
 };
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
@@ -46,7 +46,9 @@ pub fn light_from(l: &LightArgs) -> PyResult<Light> {
     let kind = match kind.as_str() {
         "directional" => LightKind::Directional,
         "point" => LightKind::Point,
-        other => return Err(PyValueError::new_err(format!("light kind must be 'directional' or 'point', got '{other}'"))),
+        other => {
+            return Err(PyValueError::new_err(format!("light kind must be 'directional' or 'point', got '{other}'")))
+        }
     };
     for (n, v) in [("ambient_intensity", ambient), ("diffuse_intensity", diffuse)] {
         if !v.is_finite() {
@@ -217,7 +219,13 @@ impl PyRenderer {
     /// Stores the loaded float32 volume (`data` and bounds as loaded, no
     /// normals) with its gradients, so that gradient-shaded frames fetch
     /// once a sample; returns whether it did (false: left as it was).
-    fn pack_gradients(&mut self, py: Python<'_>, data: &Bound<'_, PyAny>, min_bounds: Vec3, max_bounds: Vec3) -> PyResult<bool> {
+    fn pack_gradients(
+        &mut self,
+        py: Python<'_>,
+        data: &Bound<'_, PyAny>,
+        min_bounds: Vec3,
+        max_bounds: Vec3,
+    ) -> PyResult<bool> {
         let inner = &mut *self.inner;
         let normals: Option<PyReadonlyArray4<'_, f32>> = None;
         with_volume(data, &normals, min_bounds, max_bounds, |view| run_released(py, |_| inner.pack_gradients(&view)))
@@ -466,8 +474,11 @@ impl PyRenderer {
 /// `step` on a grid of world `spacing` (x, y, z).
 #[pyfunction]
 pub fn brick_ghost(step: f64, spacing: Vec3) -> PyResult<usize> {
-    if !(step > 0.0 && step.is_finite()) || ![spacing.0, spacing.1, spacing.2].iter().all(|s| *s > 0.0 && s.is_finite()) {
-        return Err(PyValueError::new_err(format!("step and spacing must be positive and finite, got {step} and {spacing:?}")));
+    if !(step > 0.0 && step.is_finite()) || ![spacing.0, spacing.1, spacing.2].iter().all(|s| *s > 0.0 && s.is_finite())
+    {
+        return Err(PyValueError::new_err(format!(
+            "step and spacing must be positive and finite, got {step} and {spacing:?}"
+        )));
     }
     Ok(crate::bricks::BrickGrid::ghost_for(step, dv(spacing)))
 }
@@ -507,7 +518,11 @@ fn image_array<'py>(py: Python<'py>, image: Image) -> PyResult<Bound<'py, PyAny>
 /// as a new (H, W, 4) array in the format `output` names (see
 /// `Renderer.render`), on every core.
 #[pyfunction]
-pub fn convert<'py>(py: Python<'py>, rgba: PyReadonlyArray3<'py, f32>, output: OutputArgs) -> PyResult<Bound<'py, PyAny>> {
+pub fn convert<'py>(
+    py: Python<'py>,
+    rgba: PyReadonlyArray3<'py, f32>,
+    output: OutputArgs,
+) -> PyResult<Bound<'py, PyAny>> {
     let s = rgba.shape().to_vec();
     if s[2] != 4 {
         return Err(PyValueError::new_err(format!("expected shape (H, W, 4), got {s:?}")));
@@ -549,7 +564,9 @@ pub fn integrate_reference<'py>(
     progress: Option<Py<PyAny>>,
 ) -> PyResult<(Bound<'py, PyArray3<f64>>, u64, Bound<'py, PyArray2<f64>>)> {
     if !(adaptive_tolerance >= 0.0 && adaptive_tolerance.is_finite()) {
-        return Err(PyValueError::new_err(format!("adaptive_tolerance must be a finite number >= 0, got {adaptive_tolerance}")));
+        return Err(PyValueError::new_err(format!(
+            "adaptive_tolerance must be a finite number >= 0, got {adaptive_tolerance}"
+        )));
     }
     let rows = lut_rows(&lut)?;
     let value_map = ValueMap::new(value_map.0, value_map.1).map_err(PyValueError::new_err)?;
@@ -565,7 +582,19 @@ pub fn integrate_reference<'py>(
     // KeyboardInterrupt may surface: it stops the frame and is raised.
     let mut raised_in_progress: Option<PyErr> = None;
     let result = with_volume(data, &normals, min_bounds, max_bounds, |volume| {
-        let frame = Frame { volume, lut: &rows, camera, light, config: cfg, width, height, adaptive_tolerance, value_map, clip, slopes: None };
+        let frame = Frame {
+            volume,
+            lut: &rows,
+            camera,
+            light,
+            config: cfg,
+            width,
+            height,
+            adaptive_tolerance,
+            value_map,
+            clip,
+            slopes: None,
+        };
         run_released(py, |stop| {
             integrate::render_image_interruptible(&frame, &mut |rows| {
                 if let Some(report) = &progress {

@@ -13,18 +13,18 @@
 //! pixel: a partial image for compositing with other bricks' (sort-last).
 
 use super::frame::native_params;
-use super::{Ends, FrameStats, Renderer, Rect, STATS_BYTES};
+use super::{Ends, FrameStats, Rect, Renderer, STATS_BYTES};
 use crate::bricks::BrickGrid;
 use crate::config::RenderConfig;
-use crate::error::{try_vec, Error};
-use crate::plan::params::{world_unit, FrameInputs, Params};
-use crate::gpu::pipeline::{marches_back_to_front, Variant};
-use crate::gpu::passes::PassPlan;
 use crate::cpu::RayStates;
-use crate::renderer::resources::{CpuCopy, OccSource, Occupancy, RayState, VolumeGpu};
+use crate::error::{try_vec, Error};
+use crate::gpu::passes::PassPlan;
+use crate::gpu::pipeline::{marches_back_to_front, Variant};
 use crate::model::Model;
 use crate::occupancy::{MinMaxGrid, SegmentRanges};
 use crate::output::{Format, Target};
+use crate::plan::params::{world_unit, FrameInputs, Params};
+use crate::renderer::resources::{CpuCopy, OccSource, Occupancy, RayState, VolumeGpu};
 use crate::scene::{Bounds, Camera, Light, RayBasis};
 use crate::volume::{Precision, VolumeView};
 use glam::DVec3;
@@ -103,7 +103,13 @@ pub struct BrickFrame {
 impl Renderer {
     /// Replaces the volume by an empty bricked one of shape `dims` in
     /// `bounds`, in bricks of `core` voxels with `ghost` voxels around each.
-    pub fn set_brick_layout(&mut self, dims: [usize; 3], bounds: Bounds, core: [usize; 3], ghost: usize) -> Result<(), Error> {
+    pub fn set_brick_layout(
+        &mut self,
+        dims: [usize; 3],
+        bounds: Bounds,
+        core: [usize; 3],
+        ghost: usize,
+    ) -> Result<(), Error> {
         self.check_process()?;
         let grid = BrickGrid::new(dims, core, ghost)?;
         let slots = (0..grid.len())
@@ -202,8 +208,7 @@ impl Renderer {
             return Ok(());
         };
         ctx.queue.submit([]);
-        ctx
-            .device
+        ctx.device
             .poll(wgpu::PollType::Wait { submission_index: None, timeout: None })
             .map(drop)
             .map_err(|e| Error::Gpu(format!("waiting for the GPU failed: {e}")))
@@ -217,7 +222,13 @@ impl Renderer {
     /// they must be rendered: bricks once loaded whose values cannot show
     /// under the transfer function (or cannot reach the iso value) are left
     /// out. `keep_state`: end with a partial image.
-    pub fn begin_bricks(&mut self, camera: &Camera, light: &Light, cfg: &RenderConfig, keep_state: bool) -> Result<Vec<usize>, Error> {
+    pub fn begin_bricks(
+        &mut self,
+        camera: &Camera,
+        light: &Light,
+        cfg: &RenderConfig,
+        keep_state: bool,
+    ) -> Result<Vec<usize>, Error> {
         self.check_process()?;
         self.brick_frame = None;
         let Some(b) = self.bricks.as_ref() else {
@@ -250,7 +261,8 @@ impl Renderer {
         let dims = DVec3::new(b.grid.dims[0] as f64, b.grid.dims[1] as f64, b.grid.dims[2] as f64);
         let eye = (camera.position - b.bounds.min) / b.bounds.extent() * dims;
         // (Bricks loaded while the native march was off keep no texels for it.)
-        let native = self.native_bricks(cfg) && b.slots.iter().all(|s| s.volume.as_ref().is_none_or(|v| v.cpu.is_some()));
+        let native =
+            self.native_bricks(cfg) && b.slots.iter().all(|s| s.volume.as_ref().is_none_or(|v| v.cpu.is_some()));
         let mut order = b.grid.front_to_back(eye);
         // (The native march takes back-to-front frames front to back, the
         // same sum, but for unbiased ones, whose points it draws from the far end.)
@@ -263,13 +275,11 @@ impl Renderer {
             Model::Isosurface => Some(OccSource::Below(cfg.iso_value.to_bits())),
             // (The cells' own ranges: a brick whose values, ghosts included,
             // all have opacity 0 holds only empty segments, pre-integrated too.)
-            m if m.skips_transparent() && self.skip_empty => {
-                Some(OccSource::Lut {
-                    version: self.tables.version,
-                    ranges: SegmentRanges::Plain,
-                    form: cfg.opacity_correction,
-                })
-            }
+            m if m.skips_transparent() && self.skip_empty => Some(OccSource::Lut {
+                version: self.tables.version,
+                ranges: SegmentRanges::Plain,
+                form: cfg.opacity_correction,
+            }),
             _ => None,
         };
         let (rows, map) = (&self.tables.rows, self.value_map);
@@ -378,7 +388,8 @@ impl Renderer {
                     "brick {index}'s texels could not be kept in memory for the native march"
                 )));
             }
-            let mut params = frame.params.for_brick(bounds, grid, index).with_slopes(vol.grid.slopes, self.value_map.scale);
+            let mut params =
+                frame.params.for_brick(bounds, grid, index).with_slopes(vol.grid.slopes, self.value_map.scale);
             if let Some(cells) = self.occupancy.occupied.filter(|_| cfg.model != Model::Isosurface) {
                 // Rays march only the window of the brick's occupied cells
                 // (the isosurface's leaps keep its bracket's lower end).
@@ -462,7 +473,8 @@ impl Renderer {
         self.depth_ready = frame.cfg.model == Model::Isosurface;
         self.depth_unit = world_unit(&bounds);
         let uniforms = (frame.dispatched as u64 + 1) * std::mem::size_of::<Params>() as u64 + STATS_BYTES;
-        let stats = FrameStats { truncated_needed, uploaded_bytes: 0, passes: frame.dispatched + 1, samples, native: false };
+        let stats =
+            FrameStats { truncated_needed, uploaded_bytes: 0, passes: frame.dispatched + 1, samples, native: false };
         Ok(self.finish_frame(stats, uniforms))
     }
 }

@@ -1,18 +1,18 @@
 //! A renderer's frame: check, plan, bind, dispatch, read back.
 
-use super::{BindKey, Ends, FrameStats, Renderer, Rect, LEAP_MIN_UNIFORM, SKIP_MIN_EMPTY, STATS_BYTES};
+use super::{BindKey, Ends, FrameStats, Rect, Renderer, LEAP_MIN_UNIFORM, SKIP_MIN_EMPTY, STATS_BYTES};
 use crate::config::{OpacityCorrection, RenderConfig};
-use crate::gpu::bindings;
 use crate::error::{try_vec, Error};
-use crate::plan::params::{world_unit, FrameInputs, Params};
-use crate::gpu::pipeline::{dispatch_groups, Layout, Variant};
+use crate::gpu::bindings;
 use crate::gpu::passes::{plan, PassPlan};
+use crate::gpu::pipeline::{dispatch_groups, Layout, Variant};
 use crate::gpu::readback::read_buffers;
-use crate::renderer::resources::{readback_buffer, PreintKey, RayState};
-use crate::preintegrate;
 use crate::integrate::max_extinction;
-use crate::output::{Format, Image, Pixels, Target};
 use crate::model::Model;
+use crate::output::{Format, Image, Pixels, Target};
+use crate::plan::params::{world_unit, FrameInputs, Params};
+use crate::preintegrate;
+use crate::renderer::resources::{readback_buffer, PreintKey, RayState};
 use crate::scene::{Camera, Light, Shading};
 
 impl Renderer {
@@ -141,14 +141,19 @@ impl Renderer {
         let pixels = self.width as usize * self.height as usize;
         let mut depth = if iso { Some(try_vec(pixels, f32::INFINITY, "the depth image")?) } else { None };
         // (The depth image starts at infinity, a miss's.)
-        let s = crate::cpu::render(&frame, out, depth.as_deref_mut(), blank, stop)
-            .map_err(|_| Error::Interrupted)?;
+        let s = crate::cpu::render(&frame, out, depth.as_deref_mut(), blank, stop).map_err(|_| Error::Interrupted)?;
         if iso {
             self.depth_unit = world_unit(&self.volume.as_ref().expect("checked by native_covers").bounds);
             self.depth_ready = true;
             self.native_depth = depth;
         }
-        let stats = FrameStats { truncated_needed: s.truncated_needed, uploaded_bytes: 0, passes: 1, samples: s.samples, native: true };
+        let stats = FrameStats {
+            truncated_needed: s.truncated_needed,
+            uploaded_bytes: 0,
+            passes: 1,
+            samples: s.samples,
+            native: true,
+        };
         Ok(self.finish_frame(stats, 0))
     }
 
@@ -224,7 +229,10 @@ impl Renderer {
     pub(super) fn whole_frame(&self, len: usize, what: &str) -> Result<(usize, usize), Error> {
         let (w, h) = (self.width as usize, self.height as usize);
         if len != w * h * 4 {
-            return Err(Error::InvalidInput(format!("{what} has {len} values, expected {} ({w} x {h} x 4)", w * h * 4)));
+            return Err(Error::InvalidInput(format!(
+                "{what} has {len} values, expected {} ({w} x {h} x 4)",
+                w * h * 4
+            )));
         }
         Ok((w, h))
     }
@@ -311,8 +319,7 @@ impl Renderer {
             return side - 1;
         };
         let extent = vol.bounds.extent().to_array();
-        let per_voxel: [f64; 3] =
-            std::array::from_fn(|k| vol.grid.slopes[k] as f64 * self.value_map.scale.abs());
+        let per_voxel: [f64; 3] = std::array::from_fn(|k| vol.grid.slopes[k] as f64 * self.value_map.scale.abs());
         let per_unit: [f64; 3] = std::array::from_fn(|k| per_voxel[k] * vol.dims[k] as f64 / extent[k]);
         let along = per_unit.iter().map(|a| a * a).sum::<f64>().sqrt() * cfg.step_size;
         let rounding = 2.0 * per_voxel.iter().sum::<f64>() / 256.0;
@@ -321,14 +328,18 @@ impl Renderer {
 
     /// The shader variant and the passes this frame needs, with the ray
     /// state and pre-integration table they use.
-    pub(super) fn prepare(&mut self, camera: &Camera, light: &Light, cfg: &RenderConfig) -> Result<(Variant, PassPlan), Error> {
+    pub(super) fn prepare(
+        &mut self,
+        camera: &Camera,
+        light: &Light,
+        cfg: &RenderConfig,
+    ) -> Result<(Variant, PassPlan), Error> {
         let vol = self.volume.as_ref().expect("checked by check_ready");
         let shading = Shading::choose(light, vol.normals_apart || vol.normals_in_volume);
         let hw_filter = vol.filterable && !(self.shader_filtering || cfg.exact_filtering);
         let layout = Layout { hw_filter, normals_in_volume: vol.normals_in_volume };
         // Projections' leaps need no empty cells, only the cells' bounds.
-        let skip = self.skip_empty
-            && (cfg.model.leaps_by_bounds() || self.occupancy.empty_fraction >= SKIP_MIN_EMPTY);
+        let skip = self.skip_empty && (cfg.model.leaps_by_bounds() || self.occupancy.empty_fraction >= SKIP_MIN_EMPTY);
         let mut variant = Variant::new(shading, light.kind, cfg, layout, skip);
         let shadow_rays = cfg.model == Model::SingleScattering && variant.shading != Shading::AmbientOnly;
         let pixels = self.width as u64 * self.height as u64;
@@ -471,10 +482,13 @@ impl Renderer {
             // Writes before a submit are ordered with it: each pass sees its own.
             ctx.queue.write_buffer(&f.uniform, 0, bytemuck::bytes_of(&p));
             let submitted = ctx.scoped("rendering", || {
-                let mut enc = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
+                let mut enc =
+                    ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
                 {
-                    let mut cpass =
-                        enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("raymarch"), timestamp_writes: None });
+                    let mut cpass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                        label: Some("raymarch"),
+                        timestamp_writes: None,
+                    });
                     cpass.set_pipeline(&pipeline);
                     cpass.set_bind_group(0, bind_group, &[]);
                     let (gx, gy) = dispatch_groups(rect.width, rect.height);
@@ -515,7 +529,8 @@ impl Renderer {
         }
         let bytes = self.width as u64 * self.height as u64 * 16;
         let ctx = self.ctx();
-        let staging = ctx.scoped("reading the depth image", || readback_buffer(&ctx.device, "depth readback", bytes))?;
+        let staging =
+            ctx.scoped("reading the depth image", || readback_buffer(&ctx.device, "depth readback", bytes))?;
         let mut enc = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("depth") });
         enc.copy_buffer_to_buffer(&self.shader().frame.ray_state.state, 0, &staging, 0, bytes);
         ctx.queue.submit([enc.finish()]);
@@ -526,7 +541,12 @@ impl Renderer {
         })
     }
 
-    pub fn render(&mut self, camera: &Camera, light: &Light, cfg: &RenderConfig) -> Result<(Vec<f32>, FrameStats), Error> {
+    pub fn render(
+        &mut self,
+        camera: &Camera,
+        light: &Light,
+        cfg: &RenderConfig,
+    ) -> Result<(Vec<f32>, FrameStats), Error> {
         self.render_interruptible(camera, light, cfg, &mut || false)
     }
 

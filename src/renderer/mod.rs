@@ -4,18 +4,18 @@
 //! and are replaced only when their input changes: a camera, light or
 //! config change rewrites one uniform block and nothing else.
 
-use crate::gpu::context::{GpuContext, ProcessSlot};
 use crate::config::{OpacityCorrection, RenderConfig};
 use crate::error::Error;
+use crate::gpu::context::{GpuContext, ProcessSlot};
+use crate::gpu::pipeline::Pipelines;
 use crate::model::Model;
 use crate::occupancy::{segment_ranges, uniform_radius, SegmentRanges};
 use crate::plan::Params;
-use crate::gpu::pipeline::Pipelines;
-use device::{Caps, Device, EngineChoice};
-use resources::{readback_buffer, CpuCopy, Fixed, OccSource, Occupancy, Output, RayState, Tables, VolumeGpu};
 use crate::scene::Bounds;
 use crate::transfer::ValueMap;
 use crate::volume::{Precision, VolumeView};
+use device::{Caps, Device, EngineChoice};
+use resources::{readback_buffer, CpuCopy, Fixed, OccSource, Occupancy, Output, RayState, Tables, VolumeGpu};
 use std::sync::Arc;
 
 /// Leaping over empty cells makes every sample's loop heavier: it pays only
@@ -290,7 +290,11 @@ impl Renderer {
     /// Which engine renders frames it covers: "native" where the native
     /// march does (no device, or a CPU adapter), else "shader".
     pub fn engine(&self) -> &'static str {
-        if self.native_march && self.dev.caps.native { "native" } else { "shader" }
+        if self.native_march && self.dev.caps.native {
+            "native"
+        } else {
+            "shader"
+        }
     }
 
     fn ctx(&self) -> &GpuContext {

@@ -4,18 +4,18 @@
 //! input changes.
 
 use super::device::Device;
-use crate::gpu::context::GpuContext;
-use crate::error::Error;
-use crate::half::{f16_to_f32, f32_to_f16};
 use crate::config::OpacityCorrection;
 use crate::cpu::{CellBounds, CpuVolume, Texels};
-use crate::occupancy::{empty_radius, occupied_bounds, MinMaxGrid, SegmentRanges, UNIFORM_FLAG};
+use crate::error::Error;
+use crate::error::{try_collect, try_vec};
+use crate::fixed16::{normal_code, Fixed16, CODE_MAX};
+use crate::gpu::context::GpuContext;
 use crate::gradients;
+use crate::half::{f16_to_f32, f32_to_f16};
+use crate::occupancy::{empty_radius, occupied_bounds, MinMaxGrid, SegmentRanges, UNIFORM_FLAG};
 use crate::plan::PROJECTION_REACH;
 use crate::preintegrate;
 use crate::scene::Bounds;
-use crate::error::{try_collect, try_vec};
-use crate::fixed16::{normal_code, Fixed16, CODE_MAX};
 use crate::transfer::ValueMap;
 use crate::volume::{sanitize, unit_direction, Precision, VolumeView, Voxels};
 
@@ -230,7 +230,15 @@ impl VolumeGpu {
         let [g0, g1, g2] = b.grid;
         let size = wgpu::Extent3d { width: g2 as u32, height: g1 as u32, depth_or_array_layers: g0 as u32 };
         let rg32 = wgpu::TextureFormat::Rg32Uint;
-        let view = dev.ctx().texture_with_data("uploading the projection's cell bounds", "cell bounds", size, D3, rg32, 1, &data)?;
+        let view = dev.ctx().texture_with_data(
+            "uploading the projection's cell bounds",
+            "cell bounds",
+            size,
+            D3,
+            rg32,
+            1,
+            &data,
+        )?;
         entry.view = Some(view.clone());
         Ok((view, data.len() as u64))
     }
@@ -363,8 +371,11 @@ impl VolumeGpu {
         let coded = Fixed16::encode(vol.voxels)?;
         let grid = match vol.voxels {
             Voxels::F32(_) => {
-                let read = try_collect(coded.codes.len(), "coding the volume in 16 bits",
-                                       coded.codes.iter().map(|&c| Fixed16::decode(coded.map, c) as f32))?;
+                let read = try_collect(
+                    coded.codes.len(),
+                    "coding the volume in 16 bits",
+                    coded.codes.iter().map(|&c| Fixed16::decode(coded.map, c) as f32),
+                )?;
                 MinMaxGrid::build(&VolumeView { voxels: Voxels::F32(&read), ..*vol })
             }
             _ => MinMaxGrid::build(vol),
@@ -389,11 +400,13 @@ impl VolumeGpu {
     /// (value, normal) per voxel, so that a lit sample fetches once. The
     /// occupancy grid is built from the rounded values the device reads.
     fn upload_f16(dev: &Device, vol: &VolumeView, values: &[f32], native: CpuCopy) -> Result<VolumeGpu, Error> {
-        let halves = try_collect(values.len(), "converting the volume to float16", values.iter().map(|&v| f32_to_f16(v)))?;
+        let halves =
+            try_collect(values.len(), "converting the volume to float16", values.iter().map(|&v| f32_to_f16(v)))?;
         // Built before the texels so that the rounded copy is freed first
         // (a 512^3 volume's texels alone take 1 GB).
         let grid = {
-            let rounded = try_collect(halves.len(), "converting the volume to float16", halves.iter().map(|&h| f16_to_f32(h)))?;
+            let rounded =
+                try_collect(halves.len(), "converting the volume to float16", halves.iter().map(|&h| f16_to_f32(h)))?;
             MinMaxGrid::build(&VolumeView { voxels: Voxels::F32(&rounded), ..*vol })
         };
         let (format, data) = match vol.normals {
@@ -418,7 +431,9 @@ impl VolumeGpu {
         let cpu = cpu_copy(dev, native, format, texels, bytes, &mut None);
         let view = match cpu {
             Some(_) => None,
-            None => Some(dev.required_texture("uploading the volume", "volume", extent_of(texels), D3, format, bytes)?),
+            None => {
+                Some(dev.required_texture("uploading the volume", "volume", extent_of(texels), D3, format, bytes)?)
+            }
         };
         Ok(VolumeGpu { view, cpu, bytes: bytes.len() as u64, ..Self::described(vol, format, grid) })
     }
@@ -557,7 +572,11 @@ impl VolumeGpu {
     /// Bytes uploaded when the volume was made: its `bytes`, or none while
     /// its textures wait for a frame on the shader.
     pub fn uploaded(&self) -> u64 {
-        if self.view.is_some() { self.bytes } else { 0 }
+        if self.view.is_some() {
+            self.bytes
+        } else {
+            0
+        }
     }
 
     /// The stored format and where the normals are, for reports.
@@ -602,17 +621,17 @@ fn extent_of([s0, s1, s2]: [usize; 3]) -> wgpu::Extent3d {
 /// of 1/127, and a fourth byte unused.
 fn packed_normals(n: &[f32]) -> Result<Vec<[i8; 4]>, Error> {
     let q = |v: f32| (v * 127.0).round() as i8;
-    try_collect(n.len() / 3, "packing the normals", n.chunks_exact(3).map(|c| {
-        let u = unit_direction([c[0], c[1], c[2]]);
-        [q(u[0]), q(u[1]), q(u[2]), 0]
-    }))
+    try_collect(
+        n.len() / 3,
+        "packing the normals",
+        n.chunks_exact(3).map(|c| {
+            let u = unit_direction([c[0], c[1], c[2]]);
+            [q(u[0]), q(u[1]), q(u[2]), 0]
+        }),
+    )
 }
 
-fn upload_normals(
-    dev: &Device,
-    size: wgpu::Extent3d,
-    packed: &[[i8; 4]],
-) -> Result<(wgpu::TextureView, u64), Error> {
+fn upload_normals(dev: &Device, size: wgpu::Extent3d, packed: &[[i8; 4]]) -> Result<(wgpu::TextureView, u64), Error> {
     let data: &[u8] = bytemuck::cast_slice(packed);
     let snorm8 = wgpu::TextureFormat::Rgba8Snorm;
     let view = dev.required_texture("uploading the normals", "normals", size, D3, snorm8, data)?;
@@ -747,7 +766,11 @@ impl Tables {
 
     /// The table as the native march reads it: at least two entries.
     pub fn march_rows(&self) -> &[[f32; 4]] {
-        if self.rows.len() >= 2 { &self.rows } else { &self.pair }
+        if self.rows.len() >= 2 {
+            &self.rows
+        } else {
+            &self.pair
+        }
     }
 
     /// Makes the pre-integration table for `key` current: the current one
@@ -783,7 +806,15 @@ impl Tables {
         let (format, bytes) = float_table(dev, &t.texels, Some(6.0e4));
         let height = (t.side + 3 * t.rows) as u32;
         let size = wgpu::Extent3d { width: t.side as u32, height, depth_or_array_layers: 1 };
-        let uploaded = dev.ctx().texture_with_data("uploading the pre-integration table", "preint", size, D2, format, 1, &bytes)?;
+        let uploaded = dev.ctx().texture_with_data(
+            "uploading the pre-integration table",
+            "preint",
+            size,
+            D2,
+            format,
+            1,
+            &bytes,
+        )?;
         *view = Some(uploaded);
         Ok(bytes.len() as u64)
     }
@@ -1010,8 +1041,15 @@ impl Fixed {
         let volume_samplers = [sampler(wgpu::FilterMode::Nearest), sampler(wgpu::FilterMode::Linear)];
         let linear_sampler = sampler(wgpu::FilterMode::Linear);
         let one = wgpu::Extent3d { width: 1, height: 1, depth_or_array_layers: 1 };
-        let no_preint =
-            ctx.texture_with_data("allocating renderer buffers", "no table", one, D2, wgpu::TextureFormat::Rgba16Float, 1, &[0u8; 8])?;
+        let no_preint = ctx.texture_with_data(
+            "allocating renderer buffers",
+            "no table",
+            one,
+            D2,
+            wgpu::TextureFormat::Rgba16Float,
+            1,
+            &[0u8; 8],
+        )?;
         Ok(Fixed { no_normals, no_preint, volume_samplers, linear_sampler })
     }
 }
