@@ -205,7 +205,7 @@ def run_scene(scene, frames, use_reference):
         try:
             for p in PRESETS:
                 cfg = getattr(RenderConfig, p)()
-                img, ms = timed(lambda: ref.render(cam, light, cfg), frames)
+                img, ms = timed(lambda: ref.render(cam, light, cfg), frames)  # noqa: B023 (called at once)
                 res["points"].append({"engine": "moderngl", "kind": "preset", "label": p, "step": cfg.step_size,
                                       "ms": ms, **accuracy.error_metrics(img, conv)})
         finally:
@@ -227,7 +227,7 @@ def run_vtk(scene, lut, res, frames):
             # distance: the scale below which errors against it say little.
             settled = accuracy.error_metrics(finest, peer.render(VTK_SWEEP[0] / 4))["max"]
             for h in VTK_SWEEP:
-                img, ms = timed(lambda: peer.render(h), frames)
+                img, ms = timed(lambda: peer.render(h), frames)  # noqa: B023 (called at once)
                 m = accuracy.error_metrics(img, finest)
                 res["points"].append({"engine": f"vtk-{kind}", "kind": "sweep", "label": f"step {h}", "step": h,
                                       "ms": ms, "finest_vs_half": settled, "peak": peak_level(finest), **m})

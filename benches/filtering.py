@@ -66,7 +66,7 @@ def main():
                     r.set_config(cfg.replace(exact_filtering=exact))
                     with warnings.catch_warnings():
                         warnings.simplefilter("ignore")
-                        img, ms = timed(lambda: r.render(dtype=np.float32, premultiplied=True), args.frames)
+                        img, ms = timed(lambda: r.render(dtype=np.float32, premultiplied=True), args.frames)  # noqa: B023
                     got.append((accuracy.error_metrics(img, conv)["max"], ms))
                 kind = "pre-integrated" if pre else "midpoint"
                 (e_hw, t_hw), (e_ex, t_ex) = got

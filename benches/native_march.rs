@@ -78,7 +78,7 @@ fn main() {
 
     let mut gpu = Renderer::new(size, size).expect("a device");
     gpu.set_lut(&lut).expect("table");
-    let device = gpu.context().describe();
+    let device = gpu.device().describe();
     println!(
         "{size}x{size}, {n}^3 double sphere with normals, balanced, {} threads; {device}",
         std::thread::available_parallelism().map_or(1, |t| t.get())

@@ -191,7 +191,7 @@ def models(results: list, cores: int) -> dict:
             b = (t1 - t0) / (n1 ** 3 - n0 ** 3)
             for n in sizes[2:]:
                 pred[(n, mode, workers)] = ("size", t0 + b * (n ** 3 - n0 ** 3))
-    for (n, mode, workers), t in ok.items():
+    for (n, mode, workers), _t in ok.items():
         one, dev = ok.get((n, "cluster", 1)), ok.get((n, "bricked", 0))
         if mode == "cluster" and workers > 1 and one is not None and dev is not None:
             pred[(n, mode, workers)] = ("workers", dev + max(one - dev, 0.0) / min(workers, cores))

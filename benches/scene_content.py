@@ -176,7 +176,7 @@ def peers(args, camera, ctf, ours):
         from peers import VtkPeer
     except ImportError:
         VtkPeer = None
-    for name, (data, otf) in scenes(args.volume).items():
+    for name, (data, _otf) in scenes(args.volume).items():
         if VtkPeer is None:
             rows[name].append(float("nan"))
             continue

@@ -5,8 +5,6 @@ Run: .venv/bin/python examples/basic_rendering.py  (writes out/basic_rendering.p
 
 import time
 
-import numpy as np
-
 from _common import out_path
 from pyvr.camera import Camera
 from pyvr.config import RenderConfig

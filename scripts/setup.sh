@@ -38,7 +38,7 @@ echo "== installing Python packages"
 # dask, distributed and xarray what the out-of-core and cluster tests use.
 .venv/bin/python -m pip install -q "maturin>=1.7,<2" numpy scipy pillow matplotlib moderngl pytest hypothesis \
     nibabel pynrrd pydicom tifffile zarr tqdm imageio imageio-ffmpeg jupyter_rfb ipywidgets nbclient nbformat ipykernel \
-    "dask[array]" distributed xarray
+    "dask[array]" distributed xarray ruff
 
 echo "== building pyvr (release)"
 start=$(date +%s)

@@ -24,3 +24,5 @@ if .venv/bin/python -c "import sys; from pyvr.renderer import device_limits; sys
     echo "== pytest, no GPU adapter (VK_ICD_FILENAMES points at nothing)"
     VK_ICD_FILENAMES=/nonexistent .venv/bin/python -m pytest tests -q
 fi
+# Style: rustfmt, clippy (warnings as errors) and ruff.
+bash scripts/lint.sh

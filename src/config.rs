@@ -356,9 +356,7 @@ mod tests {
 
     #[test]
     fn validation_order_and_messages() {
-        let mut c = RenderConfig::default();
-        c.step_size = 0.0;
-        c.max_steps = 0;
+        let mut c = RenderConfig { step_size: 0.0, max_steps: 0, ..RenderConfig::default() };
         assert_eq!(c.validate().unwrap_err().message(), "step_size must be positive");
         c.step_size = 0.01;
         assert_eq!(c.validate().unwrap_err().message(), "max_steps must be at least 1");

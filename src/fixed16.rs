@@ -52,7 +52,7 @@ impl Fixed16 {
                 2 * CODE_MAX
             )));
         }
-        let factor = if span == 0 { 1 } else { 2 * CODE_MAX as u32 / span };
+        let factor = (2 * CODE_MAX as u32).checked_div(span).unwrap_or(1);
         let codes = try_collect(
             n,
             "coding the volume in 16 bits",

@@ -798,7 +798,7 @@ mod tests {
         }
         assert_eq!(occupied_bounds(&occ, dims), Some([[1, 3], [2, 6], [2, 8]]));
         let mut one = vec![0u8; 5 * 7 * 9];
-        one[(4 * 7 + 0) * 9 + 3] = 1;
+        one[(4 * 7) * 9 + 3] = 1;
         assert_eq!(occupied_bounds(&one, dims), Some([[4, 4], [0, 0], [3, 3]]));
     }
 

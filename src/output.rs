@@ -87,6 +87,7 @@ fn straight(c: [f32; 4]) -> [f32; 4] {
 /// first (by its reciprocal). Rounded half up and clamped after scaling,
 /// which gives the codes of clamping to [0, 1] first; max(NaN, 0) is 0.
 #[inline(always)]
+#[allow(clippy::manual_clamp)] // clamp would keep NaN
 fn to_codes(c: [f32; 4], straight: bool) -> [u8; 4] {
     let q = |v: f32| -> u8 {
         let x = (v * 255.0 + 0.5).max(0.0).min(255.0);

@@ -55,17 +55,17 @@ fn the_native_march_renders_the_shaders_frame() {
     let cpu_adapter = r.device().caps.native;
     let plain = RenderConfig::default();
     let configs = [
-        plain.clone(),
-        RenderConfig { pre_integrated: true, ..plain.clone() },
-        RenderConfig { pre_integrated: true, refine: 8, step_size: 0.03, ..plain.clone() },
-        RenderConfig { model: Model::Mip, ..plain.clone() },
-        RenderConfig { model: Model::MinIp, ..plain.clone() },
-        RenderConfig { model: Model::Average, ..plain.clone() },
-        RenderConfig { model: Model::Isosurface, iso_value: 0.4, ..plain.clone() },
+        plain,
+        RenderConfig { pre_integrated: true, ..plain },
+        RenderConfig { pre_integrated: true, refine: 8, step_size: 0.03, ..plain },
+        RenderConfig { model: Model::Mip, ..plain },
+        RenderConfig { model: Model::MinIp, ..plain },
+        RenderConfig { model: Model::Average, ..plain },
+        RenderConfig { model: Model::Isosurface, iso_value: 0.4, ..plain },
         // Ratio tracking's points, without the roulette early termination
         // becomes there (its number hashes a point's offset, which the two
         // engines' logarithms may round apart).
-        RenderConfig { unbiased: true, early_ray_termination: false, ..plain.clone() },
+        RenderConfig { unbiased: true, early_ray_termination: false, ..plain },
     ];
     // The values as 8-bit codes at precision float32: their normals stored apart.
     let codes: Vec<u8> = values.iter().map(|v| (v * 255.0).round() as u8).collect();

@@ -22,7 +22,10 @@ def r():
                          otf=OpacityTransferFunction.peaks([0.5], opacity=0.6, eps=0.03))
 
 
-def mean_of_seeds(r, first, n, cfg=CFG.replace(unbiased=True)):
+UNBIASED_CFG = CFG.replace(unbiased=True)
+
+
+def mean_of_seeds(r, first, n, cfg=UNBIASED_CFG):
     total = sum(frame(r, config=cfg.replace(jitter_seed=first + k)).astype(np.float64) for k in range(n))
     return (total / n).astype(np.float32)
 

@@ -2,7 +2,6 @@
 legacy .vtk, .raw + .raw.info): each gives a ValueError (FileFormatError)
 or OSError naming the file and the problem, before any large allocation."""
 
-import base64
 import struct
 import tracemalloc
 import zlib

@@ -3,7 +3,6 @@
 values, axis order (axis 0 along x), spacing, origin and the bounds of the
 Volume, on an anisotropic, non-cubic grid, with integer and float types."""
 
-import gzip
 import os
 import struct
 import sys
@@ -208,7 +207,7 @@ def test_nrrd(tmp_path, detached):
 
 
 def write_dicom_series(folder, data, slope=1.0, intercept=-1024.0, shuffle=True):
-    pydicom = pytest.importorskip("pydicom")
+    pytest.importorskip("pydicom")
     from pydicom.dataset import FileDataset, FileMetaDataset
     from pydicom.uid import ExplicitVRLittleEndian, generate_uid
 

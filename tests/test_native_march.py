@@ -200,7 +200,7 @@ def test_native_march_matches_the_shader(kind, name):
         if cam is OUTSIDE and name not in IMAGES_ONLY:
             assert_same(native, shader, f"{kind}, {name}, outside")
         else:
-            (a, sa), (b, sb) = native, shader
+            (a, _), (b, _) = native, shader
             assert np.abs(a - b).max() < 0.25 * LEVEL, f"{kind}, {name}, inside"
     if name == "truncated" and kind != "plateau":  # the plateau's rays stop early
         assert shader[1]["truncated_needed"] > 60

@@ -45,7 +45,7 @@ def main(out):
     for page in sorted(glob.glob(os.path.join(ROOT, "docs", "*.md"))):
         text = open(page).read()
 
-        def fill(m):
+        def fill(m, page=page):
             path = os.path.join(out, m.group(1) + ".json")
             if not os.path.exists(path):
                 print(f"{os.path.basename(page)}: {m.group(1)} not in {out}, kept")

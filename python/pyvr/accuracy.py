@@ -510,7 +510,7 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[in
         # once; then the full search below decides.
         h_seg = feats["spacing"] / (2 * SEGMENT_START) * OFF_GRID * max(1.0, max_error_levels) ** 0.5
         ref_refine = REFINE if tf_has_step(renderer.lut) else 0
-        for attempt in range(2):
+        for _attempt in range(2):
             reference = (h_seg, True, ref_refine)
             h, err, pre, k, h_pre, h_ref = segment_kinds(None, 0.0, False, 2 * h_seg)
             if h is not None:

@@ -203,8 +203,12 @@ unsafe fn corner_pairs(offs: &[[__m256i; 2]; 3], w: &[__m256; 3], pair: impl Fn(
     };
     let at = [plane(0, 0), plane(0, 1), plane(1, 0), plane(1, 1)];
     // SAFETY: as above.
-    let (apart, ws): ([i32; 8], [[f32; 8]; 3]) =
-        unsafe { (std::mem::transmute(_mm256_sub_epi32(offs[2][1], offs[2][0])), std::mem::transmute(*w)) };
+    let (apart, ws): ([i32; 8], [[f32; 8]; 3]) = unsafe {
+        (
+            std::mem::transmute::<__m256i, [i32; 8]>(_mm256_sub_epi32(offs[2][1], offs[2][0])),
+            std::mem::transmute::<[__m256; 3], [[f32; 8]; 3]>(*w),
+        )
+    };
     let rays: [__m128; 8] = std::array::from_fn(|l| {
         let corner = |k: usize| pair(at[k][l] as usize, apart[l] != 0);
         let (wx, wy) = (_mm256_set1_ps(ws[0][l]), _mm256_set1_ps(ws[1][l]));
@@ -456,7 +460,7 @@ impl Texels for R16Unorm<'_> {
     #[target_feature(enable = "avx2,fma,f16c")]
     unsafe fn value_quad(&self, o: __m256i) -> [__m256; 4] {
         // SAFETY: the caller's contract.
-        unsafe { code_quads(self.0.as_ptr() as *const u16, o, |x| _mm_cvtepi32_ps(_mm_cvtepu16_epi32(x))) }
+        unsafe { code_quads(self.0.as_ptr(), o, |x| _mm_cvtepi32_ps(_mm_cvtepu16_epi32(x))) }
     }
 }
 

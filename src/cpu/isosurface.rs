@@ -43,7 +43,7 @@ pub unsafe fn iso<T: Texels>(
     out: &mut [[f32; 4]; TILE],
     depth: &mut [f32; TILE],
     halt: &AtomicBool,
-    mut stopped_before: Option<&mut u8>,
+    stopped_before: Option<&mut u8>,
 ) -> Stats {
     let p = f.params;
     let dims = f.volume.dims;
@@ -224,7 +224,7 @@ pub unsafe fn iso<T: Texels>(
     let c = crate::transfer::eval_lut(f.lut, p.iso_value as f64).map(|c| c as f32);
     let hits = _mm256_movemask_ps(rays.hit);
     let mut stats = Stats::default();
-    if let Some(before) = stopped_before.as_deref_mut() {
+    if let Some(before) = stopped_before {
         let earlier = *before;
         let (state, ends) = ([lanes(prev), lanes(prev_v), lanes(prev_known), lanes(started)], int_lanes(end));
         let open = _mm256_movemask_ps(open);

@@ -258,8 +258,7 @@ mod tests {
         let (mut bricked, mut outside) = (0, 0);
         for case in 0..60 {
             let v4 = |x: [f32; 3]| [x[0], x[1], x[2], 0.0];
-            let mut p =
-                Params { width: 37, height: 21, border: (case % 2) as u32, jitter_seed: case, ..Default::default() };
+            let mut p = Params { width: 37, height: 21, border: (case % 2), jitter_seed: case, ..Default::default() };
             let ext = [1.0, 0.6, 0.8];
             let pos: [f32; 3] = match case % 3 {
                 0 => std::array::from_fn(|_| pick(&mut k, -1.5, 2.5)),

@@ -29,7 +29,7 @@ fn device_limits(py: Python<'_>) -> PyResult<Bound<'_, pyo3::types::PyDict>> {
     let c = &dev.caps;
     d.set_item("max_texture_dimension_3d", c.max_texture_3d)?;
     d.set_item("max_texture_dimension_2d", c.max_texture_2d)?;
-    let binding = dev.gpu.as_ref().map_or(c.max_storage, |g| g.limits.max_storage_buffer_binding_size as u64);
+    let binding = dev.gpu.as_ref().map_or(c.max_storage, |g| g.limits.max_storage_buffer_binding_size);
     d.set_item("max_storage_buffer_binding_size", binding)?;
     d.set_item("max_buffer_size", c.max_buffer)?;
     d.set_item("max_image_pixels", c.max_storage / 16)?;

@@ -107,7 +107,7 @@ def signature_differences(qualname: str, theirs: list, ours, factories: dict = N
     by_name = {p.name: p for p in ours_params}
     positional = [p for p in ours_params if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)]
     their_positional = [p for p in theirs if p[1] in ("POSITIONAL_ONLY", "POSITIONAL_OR_KEYWORD")]
-    for i, (name, kind, default) in enumerate(theirs):
+    for name, kind, default in theirs:
         mine = by_name.get(name)
         if kind in ("VAR_POSITIONAL", "VAR_KEYWORD"):
             if not any(p.kind.name == kind for p in ours_params):

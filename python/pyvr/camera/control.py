@@ -6,7 +6,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from .._numbers import check_count, is_number, is_vec3
-from .camera import Camera, CameraError, validate_camera_angles
+from .camera import Camera, CameraError, validate_camera_angles  # noqa: F401 (pyvr 0.4.1 exposed it here)
 
 
 def _map_to_sphere(x: float, y: float, radius: float = 1.0) -> np.ndarray:

@@ -1,7 +1,6 @@
 """DICOM series (a folder of slices, e.g. one CT or MR scan) through
 pydicom (``pip install 'pyvr[dicom]'``)."""
 
-import os
 from pathlib import Path
 from typing import Optional
 
