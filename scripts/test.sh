@@ -24,5 +24,9 @@ if .venv/bin/python -c "import sys; from pyvr.renderer import device_limits; sys
     echo "== pytest, no GPU adapter (VK_ICD_FILENAMES points at nothing)"
     VK_ICD_FILENAMES=/nonexistent .venv/bin/python -m pytest tests -q
 fi
+# The native march's portable path (CPUs without AVX2, ARM) against the
+# shader and the single texture, as the AVX2 path is held above.
+echo "== pytest, the native march's portable path (PYVR_NATIVE_LANES=portable)"
+PYVR_NATIVE_LANES=portable .venv/bin/python -m pytest tests/test_native_march.py tests/test_bricks.py -q
 # Style: rustfmt, clippy (warnings as errors) and ruff.
 bash scripts/lint.sh

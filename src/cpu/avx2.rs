@@ -1855,7 +1855,7 @@ mod tests {
 
     #[test]
     fn rays_far_apart_through_a_large_volume_prefetch() {
-        if !super::super::available() {
+        if !super::super::avx2_available() {
             return;
         }
         let big = [256, 256, 256];
@@ -1877,7 +1877,7 @@ mod tests {
     /// on its last planes (clamped corners) and past them.
     #[test]
     fn values_and_normals_apart_read_as_packed_texels() {
-        if !super::super::available() {
+        if !super::super::avx2_available() {
             return;
         }
         let dims = [5, 6, 7];
@@ -1929,7 +1929,7 @@ mod tests {
 
     #[test]
     fn half_floats_read_every_binary16_exactly() {
-        if !super::super::available() {
+        if !super::super::avx2_available() {
             return;
         }
         // As the march's workers run: subnormal results flushed.
@@ -1966,7 +1966,7 @@ mod tests {
 
     #[test]
     fn neg_log_one_minus_matches_f64() {
-        if !super::super::available() {
+        if !super::super::avx2_available() {
             return;
         }
         // Every 2^-16 of opacity, the series' edge, f32's largest below 1,
@@ -2022,7 +2022,7 @@ mod tests {
     /// reads), against float64.
     #[test]
     fn central_differences_of_every_value_storage_match_f64() {
-        if !super::super::available() {
+        if !super::super::avx2_available() {
             return;
         }
         let dims = [6, 7, 9];

@@ -1,4 +1,7 @@
-//! A native march for machines whose only adapter is a CPU.
+//! The native engine: the shader's march on the CPU, for machines with no
+//! GPU adapter or only a CPU one. Its code runs eight rays in the lanes of
+//! AVX2 registers where the CPU has AVX2, FMA and F16C, and otherwise the
+//! same code on eight lanes of portable Rust (`lanes`, `portable`).
 //!
 //! There wgpu runs the shader on lavapipe, whose 8-wide code gathers each
 //! texel channel by channel and pays for every branch any lane takes. This
@@ -28,12 +31,11 @@
 mod avx2;
 #[cfg(target_arch = "x86_64")]
 mod cells;
-// Built by `render` on every machine, read by the x86-64 march alone.
-#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
 mod clear;
 mod footprint;
 #[cfg(target_arch = "x86_64")]
 mod isosurface;
+mod lanes;
 #[cfg(target_arch = "x86_64")]
 mod projection;
 #[cfg(target_arch = "x86_64")]
@@ -100,8 +102,8 @@ impl Texels {
 }
 
 /// `$call` with `$t` bound to the march's reader of `$volume`'s texels, and
-/// of its normals stored apart where `$lit` (the frame reads them).
-#[cfg(target_arch = "x86_64")]
+/// of its normals stored apart where `$lit` (the frame reads them), from
+/// the `avx2` module in scope (the AVX2 path's, or the portable path's).
 macro_rules! with_reader {
     ($volume:expr, $lit:expr, $t:ident => $call:expr) => {
         match (&$volume.texels, $volume.normals.as_deref().filter(|_| $lit)) {
@@ -151,6 +153,94 @@ macro_rules! with_reader {
             }
         }
     };
+}
+
+/// One row's march (`march_row`) by the modules in scope: the model's stage.
+macro_rules! march_with {
+    ($frame:expr, $clear:expr, $col0:expr, $row:expr, $out:expr, $depth:expr, $halt:expr, $stopped:expr) => {{
+        let (frame, clear, col0, row, out, depth, halt, stopped) =
+            ($frame, $clear, $col0, $row, $out, $depth, $halt, $stopped);
+        let _ = &depth;
+        if frame.model == Model::Isosurface {
+            with_reader!(frame.volume, frame.lit, t => isosurface::iso(frame, t, col0, row, out, depth, halt, stopped))
+        } else if frame.model.projects() {
+            with_reader!(frame.volume, false, t => projection::project(frame, t, col0, row, out, halt, stopped))
+        } else if frame.unbiased {
+            with_reader!(frame.volume, frame.lit, t => tracking::track(frame, t, col0, row, out, halt, stopped))
+        } else {
+            with_reader!(frame.volume, frame.lit, t => avx2::march(frame, clear, t, col0, row, out, halt, stopped))
+        }
+    }};
+}
+
+/// The march in portable Rust (`lanes`), made by build.rs from the AVX2
+/// modules: for CPUs without AVX2, FMA and F16C, and other architectures.
+#[allow(unused_unsafe, unused_imports, dead_code, clippy::all)]
+mod portable {
+    use super::{clear, CellBounds, Frame, Model, PreintTable, Stats, Texels, CELL, CHAIN, MAX_STEPS, TILE};
+    use std::sync::atomic::AtomicBool;
+    include!(concat!(env!("OUT_DIR"), "/portable_march.rs"));
+
+    /// `super::march_row` on the portable path.
+    ///
+    /// # Safety
+    /// The frame passed `super::check`.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) unsafe fn march_row(
+        frame: &Frame,
+        clear: &clear::Clear,
+        col0: u32,
+        row: u32,
+        out: &mut [[f32; 4]; TILE],
+        depth: &mut [f32; TILE],
+        halt: &AtomicBool,
+        stopped: Option<&mut u8>,
+    ) -> Stats {
+        unsafe { march_with!(frame, clear, col0, row, out, depth, halt, stopped) }
+    }
+}
+
+/// Which code the native march runs: AVX2 intrinsics, or the same march in
+/// portable Rust.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Lanes {
+    Avx2,
+    Portable,
+}
+
+impl Lanes {
+    pub fn name(self) -> &'static str {
+        match self {
+            Lanes::Avx2 => "avx2",
+            Lanes::Portable => "portable",
+        }
+    }
+}
+
+/// The path this process's frames take: AVX2 where the CPU has AVX2, FMA
+/// and F16C, unless PYVR_NATIVE_LANES=portable asks for the portable path
+/// (to test it, or to compare its speed); the portable path elsewhere.
+pub fn lanes() -> Lanes {
+    static CHOSEN: std::sync::LazyLock<Lanes> = std::sync::LazyLock::new(|| {
+        let forced = std::env::var("PYVR_NATIVE_LANES").is_ok_and(|v| v.trim() == "portable");
+        if !forced && avx2_available() {
+            Lanes::Avx2
+        } else {
+            Lanes::Portable
+        }
+    });
+    *CHOSEN
+}
+
+pub(crate) fn avx2_available() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma") && is_x86_feature_detected!("f16c")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
 }
 
 pub struct CpuVolume {
@@ -267,16 +357,10 @@ pub struct Stats {
     pub truncated_needed: u32,
 }
 
-/// Whether this machine runs the native march (x86-64 with AVX2, FMA and F16C).
+/// Whether this machine runs the native march: every machine does, with
+/// AVX2 or on the portable path (`lanes`).
 pub fn available() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma") && is_x86_feature_detected!("f16c")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
+    true
 }
 
 /// The frame was stopped by the caller.
@@ -310,7 +394,6 @@ impl<T: Copy> Shared<T> {
 /// The checks every frame of the march passes before its workers start.
 fn check(frame: &Frame) {
     let p = frame.params;
-    assert!(available(), "the native march needs AVX2, FMA and F16C");
     assert!(p.max_steps <= MAX_STEPS, "the native march takes at most {MAX_STEPS} steps a ray");
     if let Some((codes, dims)) = frame.cells {
         assert!(codes.len() >= dims.iter().product::<usize>() + 3, "occupancy codes need 3 bytes of padding");
@@ -343,7 +426,7 @@ fn check(frame: &Frame) {
 /// the box's footprint are not written. The calling
 /// thread asks `stop` about every 10 ms while the workers march (each ray
 /// checks for a stop every 1024 steps), so a frame of any length can be
-/// interrupted. Needs `available()`.
+/// interrupted.
 pub fn render(
     frame: &Frame,
     out: &crate::output::Target,
@@ -636,26 +719,12 @@ fn march_row(
     stopped: Option<&mut u8>,
 ) -> Stats {
     #[cfg(target_arch = "x86_64")]
-    {
-        // SAFETY: `render` checked AVX2, FMA, F16C and the paddings.
-        unsafe {
-            if frame.model == Model::Isosurface {
-                return with_reader!(frame.volume, frame.lit, t => isosurface::iso(frame, t, col0, row, out, depth, halt, stopped));
-            }
-            if frame.model.projects() {
-                return with_reader!(frame.volume, false, t => projection::project(frame, t, col0, row, out, halt, stopped));
-            }
-            if frame.unbiased {
-                return with_reader!(frame.volume, frame.lit, t => tracking::track(frame, t, col0, row, out, halt, stopped));
-            }
-            with_reader!(frame.volume, frame.lit, t => avx2::march(frame, clear, t, col0, row, out, halt, stopped))
-        }
+    if lanes() == Lanes::Avx2 {
+        // SAFETY: `lanes` checked AVX2, FMA and F16C; `render` the paddings.
+        return unsafe { march_with!(frame, clear, col0, row, out, depth, halt, stopped) };
     }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        let _ = (frame, clear, col0, row, out, depth, halt, stopped);
-        unreachable!("available() is false off x86-64")
-    }
+    // SAFETY: `render` checked the paddings.
+    unsafe { portable::march_row(frame, clear, col0, row, out, depth, halt, stopped) }
 }
 
 /// One pixel's ray as main.wgsl builds it: its chord through the (cropped)

@@ -249,7 +249,7 @@ mod tests {
     /// occupied windows and bricks' windows.
     #[test]
     fn lanes_are_the_scalar_rays() {
-        if !crate::cpu::available() {
+        if !crate::cpu::avx2_available() {
             return;
         }
         let volume = CpuVolume { texels: Texels::R32Float(vec![0.0; 8]), dims: [11, 6, 8], normals: None };

@@ -41,6 +41,8 @@ fn device_limits(py: Python<'_>) -> PyResult<Bound<'_, pyo3::types::PyDict>> {
     d.set_item("gpu_adapter", dev.gpu.is_some())?;
     // Frames the native CPU march covers are rendered by it (crate::cpu).
     d.set_item("native_march", c.native)?;
+    // The native march's code: "avx2", or "portable" (PYVR_NATIVE_LANES).
+    d.set_item("native_lanes", crate::cpu::lanes().name())?;
     Ok(d)
 }
 
