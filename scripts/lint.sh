@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Style and lint checks CI enforces: rustfmt (rustfmt.toml), clippy with
 # warnings as errors (allowed lints and why: Cargo.toml [lints.clippy]),
-# and ruff (pyproject.toml [tool.ruff]). Needs the .venv scripts/setup.sh makes.
+# ruff (pyproject.toml [tool.ruff]), and no import circles in the package. Needs the .venv scripts/setup.sh makes.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 if command -v rustup >/dev/null; then
@@ -17,3 +17,5 @@ cargo clippy --quiet --all-targets -- -D warnings
 PYO3_PYTHON="$PWD/.venv/bin/python" cargo clippy --quiet --all-targets --features python -- -D warnings
 echo "== ruff check"
 .venv/bin/ruff check --quiet python tests benches examples tools
+echo "== no import circles in the package (deferred imports counted)"
+.venv/bin/python tools/import_graph.py --all

@@ -34,23 +34,16 @@ def _exact_filtering_on_gpus(request, monkeypatch):
     """Tests compare frames with the float64 integrator at tolerances finer
     than GPUs' texture units interpolate (fixed-point weights, 8 fractional
     bits: 15 levels on a 12-bit CT's steep window on an H200). Where the
-    adapter is a GPU their frames interpolate in the shader
-    (RenderConfig.exact_filtering), except in tests marked texture_units,
-    which compare the two (tests/test_filtering.py). On a CPU adapter both
-    interpolate in f32 and nothing changes."""
-    from pyvr import VolumeRenderer
+    adapter is a GPU, renderers made in a test interpolate in the shader
+    (the documented ``PYVR_EXACT_FILTERING=1``, which
+    RenderConfig.exact_filtering sets per config), except in tests marked
+    texture_units, which compare the two (tests/test_filtering.py). On a
+    CPU adapter, or with none, both interpolate in f32 and nothing changes."""
     from pyvr.renderer import device_limits
 
     if device_limits()["cpu_device"] or request.node.get_closest_marker("texture_units"):
         return
-    sampled = VolumeRenderer._render_frame
-
-    def exact(self, size=None, config=None, output=None, sums=None):
-        cfg = (self._config_snapshot if config is None else config).copy()
-        cfg.exact_filtering = True
-        return sampled(self, size, cfg, output, sums)
-
-    monkeypatch.setattr(VolumeRenderer, "_render_frame", exact)
+    monkeypatch.setenv("PYVR_EXACT_FILTERING", "1")
 
 
 @pytest.fixture

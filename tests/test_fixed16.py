@@ -30,7 +30,7 @@ CPU_AUTO = pytest.mark.skipif(not device_limits()["cpu_device"],
 def small_cache(monkeypatch):
     """A CPU cache smaller than these test volumes' float32 texels, so that
     precision='auto' treats them as it treats large volumes."""
-    monkeypatch.setattr("pyvr.renderer.cpu_cache_bytes", lambda: 2**16)
+    monkeypatch.setattr("pyvr._storage.cpu_cache_bytes", lambda: 2**16)
 
 
 def renderer(vol, precision="auto", light=None, otf=None, value_range=None, config=None, size=(48, 40)):
@@ -70,13 +70,13 @@ def test_auto_stores_lit_volumes_in_16_bits_per_component(monkeypatch):
     # Float data: fixed point where its float32 texels outgrow a CPU's cache.
     cpu = device_limits()["cpu_device"]
     assert renderer(lit_volume()).precision == "float32"
-    monkeypatch.setattr("pyvr.renderer.cpu_cache_bytes", lambda: 2**16)
+    monkeypatch.setattr("pyvr._storage.cpu_cache_bytes", lambda: 2**16)
     assert renderer(lit_volume()).precision == ("fixed16" if cpu else "float32")
     # A reported cache counts for at most TRUSTED_CPU_CACHE (a VM reports
     # its host's, shared with other guests).
-    monkeypatch.setattr("pyvr.renderer.cpu_cache_bytes", lambda: 480 * 2**20)
+    monkeypatch.setattr("pyvr._storage.cpu_cache_bytes", lambda: 480 * 2**20)
     assert renderer(lit_volume()).precision == "float32"
-    monkeypatch.setattr("pyvr.renderer.TRUSTED_CPU_CACHE", 2**16)
+    monkeypatch.setattr("pyvr._storage.TRUSTED_CPU_CACHE", 2**16)
     assert renderer(lit_volume()).precision == ("fixed16" if cpu else "float32")
     # Without normals auto keeps the values as they are.
     assert renderer(Volume(create_sample_volume(16))).precision == "float32"

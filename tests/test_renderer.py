@@ -266,7 +266,7 @@ def test_straight_float_frames_are_numpys_rule_bit_for_bit():
     2048x2048 frame took 118-167 ms in numpy on the 2-core VM): the same
     bits as numpy's clip(where(a > 0, c / a, c), 0, 1), around zero and one,
     for NaN, infinities and negative zeros."""
-    from pyvr.renderer import _straight
+    from pyvr._frames import _straight
 
     rng = np.random.default_rng(5)
     img = rng.uniform(-0.2, 1.3, (300, 301, 4)).astype(np.float32)
@@ -288,7 +288,7 @@ def test_frames_are_made_in_the_returned_format_as_numpys_rules_give_it():
     for every combination; with a box covering part of the view (missed
     pixels stay zero or take the background) and with a transfer function
     that shows nothing (the frame is never marched)."""
-    from pyvr.renderer import _straight
+    from pyvr._frames import _straight
     from scenes import blob, make_renderer
 
     # An emission-heavy ramp makes colour above alpha, and alpha above 0.

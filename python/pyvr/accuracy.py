@@ -24,7 +24,7 @@ from typing import Dict, Optional, Tuple
 import numpy as np
 
 from .config import RenderConfig
-from .renderer import device_limits
+from ._storage import device_limits
 
 LEVELS = 255.0
 # A pre-integrated frame's time over a midpoint frame's at the same step

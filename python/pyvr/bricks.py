@@ -21,31 +21,12 @@ from typing import Any, Iterator, Optional, Sequence, Tuple
 
 import numpy as np
 
+from ._arrays import check_array_like, is_lazy  # noqa: F401 (part of this module's API)
+
 #: Core side of a brick chosen by default, in voxels.
 DEFAULT_BRICK_SIDE = 256
 #: Device bytes the bricks of one volume may keep resident by default.
 DEFAULT_MEMORY_BUDGET = 4 << 30
-
-
-def is_lazy(data: Any) -> bool:
-    """True for arrays whose voxels are not (all) in memory: numpy memmaps,
-    zarr arrays, dask arrays, xarray DataArrays."""
-    if isinstance(data, np.memmap):
-        return True
-    if isinstance(data, np.ndarray):
-        return False
-    mod = type(data).__module__.split(".")[0]
-    return mod in ("zarr", "dask", "xarray") and hasattr(data, "shape") and hasattr(data, "dtype")
-
-
-def check_array_like(data: Any) -> None:
-    """A lazy array must look like a 3-D array of real numbers."""
-    shape = getattr(data, "shape", None)
-    if shape is None or len(shape) != 3:
-        raise ValueError(f"Volume data must be 3D, got shape {shape}")
-    dt = np.dtype(data.dtype)
-    if (not np.issubdtype(dt, np.number) and dt != np.bool_) or np.issubdtype(dt, np.complexfloating):
-        raise TypeError(f"Volume data must be a real numeric array, got dtype {dt}")
 
 
 def xarray_bounds(arr: Any) -> Optional[Tuple[np.ndarray, np.ndarray]]:
@@ -212,7 +193,7 @@ class BrickedVolume:
         self.resident = False
 
     def texel_bytes(self) -> int:
-        from .renderer import device_texel_bytes
+        from ._storage import device_texel_bytes
 
         return device_texel_bytes(self.data, self.normals is not None, self.precision)[1]
 
@@ -230,7 +211,7 @@ class BrickedVolume:
 
     def read(self, i: int):
         """Brick ``i``'s voxels and normals, in memory and ready to upload."""
-        from .renderer import prepare_normals, prepare_voxels
+        from ._storage import prepare_normals, prepare_voxels
 
         r = self.ranges[i]
         block = prepare_voxels(read_block(self.data, r))

@@ -52,7 +52,7 @@ def _client(client):
 
 def _worker_renderer(width: int, height: int):
     from . import _core
-    from .renderer import _runtime_dir
+    from ._scene import _runtime_dir
 
     key = (os.getpid(), width, height)
     if key not in _RENDERERS:
@@ -62,7 +62,7 @@ def _worker_renderer(width: int, height: int):
 
 
 def _kind(cfg) -> str:
-    from .renderer import MODEL_ABILITIES
+    from ._frames import MODEL_ABILITIES
 
     return MODEL_ABILITIES[cfg.model]["reduction"]
 
@@ -71,7 +71,7 @@ def _render_brick(spec: dict, index: int, block, normals) -> np.ndarray:
     """On a worker: brick ``index``'s partial image, (H, W, 5) float32: the
     rays' states (see pyvr._core.Renderer.end_bricks) and, for the
     isosurface, the hit distance."""
-    from .renderer import prepare_normals, prepare_voxels
+    from ._storage import prepare_normals, prepare_voxels
 
     r = _worker_renderer(spec["width"], spec["height"])
     r.skip_empty = spec["skip_empty"]
@@ -149,7 +149,8 @@ def finish(partial: np.ndarray, kind: str, lut: np.ndarray, model: str) -> np.nd
 def _scene(renderer, volume) -> dict:
     """What a worker needs of ``renderer`` and ``volume``."""
     from . import bricks
-    from .renderer import _value_map_for, _vec, device_limits
+    from ._scene import _vec
+    from ._storage import _value_map_for, device_limits
 
     renderer._ensure_tf()
     cfg = renderer._config_snapshot
@@ -276,7 +277,7 @@ def _graph(renderer, volume):
 
 
 def _output(img: np.ndarray, dtype, premultiplied: bool) -> np.ndarray:
-    from .renderer import output_image
+    from ._frames import output_image
 
     # What comes back from the cluster may be read-only or unaligned.
     img = np.require(img, np.float32, ["C", "A", "W"])
@@ -311,7 +312,8 @@ def render_path(renderer, path, n_frames: Optional[int] = None, client=None, *, 
     workers once), transfer functions, light and config. Returns the frames
     in order, as ``renderer.render_path`` yields them (origin "upper" by
     default; origin, background and dtype as there)."""
-    from .renderer import _path_cameras, check_frame_options
+    from ._frames import check_frame_options
+    from ._scene import _path_cameras
 
     _check_renderer(renderer)
     client = _client(client)

@@ -14,7 +14,7 @@ from typing import Optional
 import numpy as np
 
 from ._numbers import check_count
-from .renderer import UNBIASED_MODELS, mean_image, output_image
+from ._frames import UNBIASED_MODELS, mean_image, output_image
 
 # The running mean is shown from this many frames on: four unbiased frames
 # have half the noise of one (the full frame stays on show until then).

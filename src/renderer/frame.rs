@@ -336,7 +336,11 @@ impl Renderer {
     ) -> Result<(Variant, PassPlan), Error> {
         let vol = self.volume.as_ref().expect("checked by check_ready");
         let shading = Shading::choose(light, vol.normals_apart || vol.normals_in_volume);
-        let hw_filter = vol.filterable && !(self.shader_filtering || cfg.exact_filtering);
+        // PYVR_EXACT_FILTERING=1 interpolates every frame in the shader, as
+        // RenderConfig.exact_filtering does one config's (read each frame:
+        // the test suite sets it on GPUs to compare with the f64 oracle).
+        let exact_env = std::env::var("PYVR_EXACT_FILTERING").is_ok_and(|v| v.trim() == "1");
+        let hw_filter = vol.filterable && !(self.shader_filtering || cfg.exact_filtering || exact_env);
         let layout = Layout { hw_filter, normals_in_volume: vol.normals_in_volume };
         // Projections' leaps need no empty cells, only the cells' bounds.
         let skip = self.skip_empty && (cfg.model.leaps_by_bounds() || self.occupancy.empty_fraction >= SKIP_MIN_EMPTY);

@@ -67,7 +67,7 @@ def case_float64_20000():
 def case_core_float64_20000():
     # The core's own check, without the Python layer's.
     from pyvr import _core
-    from pyvr.renderer import _camera_tuple, _light_tuple
+    from pyvr._scene import _camera_tuple, _light_tuple
     from pyvr.camera import Camera
     from pyvr.lighting import Light
     from pyvr.config import RenderConfig

@@ -6,7 +6,15 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from .._numbers import check_count, is_number, is_vec3
-from .camera import Camera, CameraError, validate_camera_angles  # noqa: F401 (pyvr 0.4.1 exposed it here)
+# pyvr 0.4.1 defined these here (and exposed CameraError): they live with the Camera now.
+from .camera import (  # noqa: F401
+    Camera,
+    CameraError,
+    _unit,
+    get_camera_pos,
+    get_camera_pos_from_params,
+    validate_camera_angles,
+)
 
 
 def _map_to_sphere(x: float, y: float, radius: float = 1.0) -> np.ndarray:
@@ -67,74 +75,6 @@ def _quaternion_to_camera_angles(rotation: Rotation, target, distance, init_pos,
     expected_up = tmp.get_camera_vectors()[1]
     roll = _signed_angle(proj(expected_up, forward), proj(actual_up, forward), forward)
     return azimuth, elevation, roll
-
-
-def _unit(v: np.ndarray):
-    """v / |v| without overflow or underflow in the norm; None for zero."""
-    m = np.max(np.abs(v))
-    if not m > 0:
-        return None
-    u = v / m
-    return u / np.linalg.norm(u)
-
-
-def get_camera_pos(target, azimuth, elevation, roll, distance, init_pos=None, init_up=None):
-    """Camera position and up vector from spherical parameters (float64 arrays).
-
-    Rotations compose as in pyvr: roll about the view direction first, then
-    elevation, then azimuth about ``init_up``.
-    """
-    validate_camera_angles(azimuth, elevation, roll)
-    if not is_vec3(target):
-        raise ValueError("target must be a 3D numpy array")
-    if not is_number(distance) or not distance > 0:
-        raise ValueError("distance must be positive")
-    if init_pos is None:
-        init_pos = np.array([0.0, 0.0, distance], dtype=np.float32)
-    if init_up is None:
-        init_up = np.array([0.0, 1.0, 0.0], dtype=np.float32)
-    if not is_vec3(init_pos):
-        raise ValueError("init_pos must be a 3D numpy array")
-    if not is_vec3(init_up):
-        raise ValueError("init_up must be a 3D numpy array")
-    # pyvr's float32 inputs, then float64 unit vectors: the distance only
-    # scales the result, so a scene 1e-30 or 1e30 across neither underflows
-    # nor overflows the norms (which flipped or broke the rotation).
-    target = target.astype(np.float32).astype(np.float64)
-    init_pos = init_pos.astype(np.float32).astype(np.float64)
-    init_up = init_up.astype(np.float32).astype(np.float64)
-    if not (np.all(np.isfinite(target)) and np.all(np.isfinite(init_pos)) and np.all(np.isfinite(init_up))
-            and np.isfinite(distance)):
-        raise ValueError("target, init_pos, init_up and distance must be finite")
-
-    unit = _unit(init_pos - target)
-    if unit is None:
-        raise ValueError("init_pos must not be the zero vector (relative to target)")
-    r_az = Rotation.from_rotvec(azimuth * init_up)
-    view_dir = -unit
-    axis_el = np.cross(init_up, view_dir)
-    if np.linalg.norm(axis_el) < 1e-6:
-        fallback = np.array([1.0, 0.0, 0.0]) if abs(init_up[0]) < 0.9 else np.array([0.0, 0.0, 1.0])
-        axis_el = np.cross(init_up, fallback)
-    axis_el = axis_el / np.linalg.norm(axis_el)
-    r_el = Rotation.from_rotvec(elevation * axis_el)
-    r_roll = Rotation.from_rotvec(roll * view_dir)
-    r = r_az * r_el * r_roll
-    position = r.apply(unit) * float(distance) + target
-    up = r.apply(init_up)
-    return np.asarray(position, dtype=np.float64), np.asarray(up, dtype=np.float64)
-
-
-def get_camera_pos_from_params(params: Camera):
-    return get_camera_pos(
-        params.target,
-        params.azimuth,
-        params.elevation,
-        params.roll,
-        params.distance,
-        params.init_pos,
-        params.init_up,
-    )
 
 
 class CameraPath:

@@ -46,7 +46,7 @@ class Volume:
         self.validate()
 
     def validate(self) -> None:
-        from ..bricks import check_array_like, is_lazy
+        from .._arrays import check_array_like, is_lazy
 
         if is_lazy(self.data):
             # Out of memory (memmap, zarr, dask, xarray): read brick by brick.
@@ -126,7 +126,7 @@ class Volume:
     def compute_normals(self, method: str = "gradient") -> None:
         if method != "gradient":
             raise ValueError(f"Unsupported method: {method}")
-        from ..datasets import compute_normal_volume
+        from ..datasets.synthetic import compute_normal_volume
 
         self.normals = compute_normal_volume(self.data)
 
