@@ -304,7 +304,7 @@ def short(p):
 
 
 def write_tables(results, command, device):
-    """The tables docs/speed.md shows, from this run's results."""
+    """The tables docs/performance.md shows, from this run's results."""
     presets, f16, targets, peers = [], [], [], []
     for res in results:
         pts = [p for p in res["points"] if p["kind"] != "probe"]

@@ -14,7 +14,7 @@ frame is rendered by the shader and by the native march alternately in one
 process (`VolumeRenderer.native_march` off and on), and compared by median
 time and by the largest difference between their premultiplied images.
 
-Output: a table on stdout and out/native_coverage.json (docs/speed.md).
+Output: a table on stdout and out/native_coverage.json (docs/performance.md).
 
 Run: .venv/bin/python benches/native_coverage.py [--frames N] [--size PX]
 """

@@ -22,7 +22,7 @@ at the same step, and a frame back at a step whose table was kept.
 
 Output: tables on stdout, out/preintegration_cost.json,
 out/preintegration_gain.json and out/preintegration_table.json
-(docs/speed.md).
+(docs/performance.md).
 
 Run: .venv/bin/python benches/preintegration.py [--frames N] [--quick] [--only NAME]
 """

@@ -13,7 +13,7 @@ warm-up.
 
     .venv/bin/python benches/uniform_runs.py [--frames 5]
 
-Prints the table and writes out/uniform_runs.json (docs/speed.md's table).
+Prints the table and writes out/uniform_runs.json (docs/performance.md's table).
 """
 
 import argparse

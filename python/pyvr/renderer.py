@@ -309,13 +309,12 @@ class VolumeRenderer(VolumeLoading, FrameRendering):
         projections and the isosurface; and the same frames of bricked volumes,
         brick after brick; 1.25x (float32) and 1.7x (fixed16)
         the shader's speed per sample on the benchmark scene on a 2-core
-        AMD EPYC (docs/speed.md).
+        AMD EPYC (docs/performance.md).
         Images match the shader's within 0.25 level
         (measured: 0.0004 on most scenes); ``last_frame_stats["engine"]``
         says which ran ("native" or "gpu"). It keeps a volume's texels in
         memory itself (each brick's too), and the shader's texture is made
-        from them only when a frame first runs on the shader (docs/speed.md,
-        "The native march").
+        from them only when a frame first runs on the shader (docs/native-march.md).
 
         Where no GPU adapter opens at all (no Vulkan driver, or
         ``PYVR_ENGINE=native``), the native engine is the only one: it
