@@ -164,11 +164,10 @@ fn start_integration(r: Ray) -> Integration {
 // either march order), and comes out whole after the last. One volume fetch
 // and one table fetch per call, each chosen by select: llvmpipe runs both
 // sides of a branch under a lane mask whenever any lane takes each side, so
-// fetches in alternative branches would all be paid on every segment (a
-// shorter segment's own transfer-function lookup cost 12-18% of the frame
-// before it moved into the pre-integration texture, and refined samples in
-// a loop of their own made every segment of a frame 1.6x slower, none
-// refined). A full segment's light is the mean of the light at its two ends
+// fetches in alternative branches would all be paid on every segment (so
+// a shorter segment's own transfer-function lookup reads the
+// pre-integration texture, and refined samples share the segment's loop).
+// A full segment's light is the mean of the light at its two ends
 // (as in the f64 integrator), each computed once from the texel fetched
 // there: normals packed with the values then cost no fetch of their own.
 fn preintegrated_segment(r: Ray, si: u32, sp: vec2<f32>, s: ptr<function, Integration>,

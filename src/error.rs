@@ -76,8 +76,8 @@ pub fn try_zeroed<T: bytemuck::Zeroable>(n: usize, what: &str) -> Result<Vec<T>,
 /// Asks Linux to back the whole 2 MiB pages among `len` bytes from `ptr`
 /// with transparent huge pages where it has them (numpy does the same for
 /// its arrays of 4 MiB and more): a 2048x2048 float image is 16384 pages
-/// of 4 KiB, and faulting them in one by one cost 30 ms of a frame on the
-/// 2-core VM; 2 MiB pages are 32 faults. Only a hint: errors are ignored.
+/// of 4 KiB, each a fault when first written, against 32 pages of 2 MiB.
+/// Only a hint: errors are ignored.
 fn huge_pages(ptr: *mut u8, len: usize) {
     #[cfg(target_os = "linux")]
     if len >= 4 << 20 {

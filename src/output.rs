@@ -108,8 +108,8 @@ pub fn to_u8(rgba: &[f32], straight: bool, out: &mut [u8]) {
 }
 
 /// The pixels in each core's run, or None where one core does it all
-/// (small frames). One core took 45-51 ms to quantize a 2048x2048 frame on
-/// the 2-core VM, longer than the GPU's frame.
+/// (small frames): quantizing a large frame on one core takes longer than
+/// a GPU takes to render it.
 fn run_pixels(pixels: usize) -> Option<usize> {
     const MIN_PIXELS: usize = 1 << 16;
     let threads = crate::cores::cores().min(pixels / MIN_PIXELS);

@@ -265,8 +265,8 @@ fn lerp_entry(lut: &[[f32; 4]], i: usize, f: f64) -> [f64; 4] {
 /// entries of each d are windows of d consecutive intervals, composed in
 /// the ramp's direction in O(1) each from running compositions within
 /// blocks of d intervals. O(side^2) pieces where integrating every entry
-/// on its own takes O(side^3): about 1.5 ms instead of about 70 for 256
-/// entries, and closer to the exact integral (the tests below). A lookup
+/// on its own takes O(side^3), and closer to the exact integral (the tests
+/// below). A lookup
 /// table longer than the table's side (MAX_TABLE) puts several of its
 /// intervals in each table interval; integrating each entry on its own
 /// took 0.55 s at 1024 entries and grew with their number.
@@ -311,9 +311,8 @@ fn table_windowed(
         // down[j] is interval m - 2 - j: window j runs from entry m - 1 - j down to m - 1 - j - d.
         windows(down, d, to_end, from_start, |j, w| unsafe { out.write(at(m - 1 - j, m - 1 - j - d), w) });
     };
-    // A thread each only where there is work enough (split from four
-    // lengths a thread, the narrow peaks' tables at step 0.001 took 0.13 ms
-    // longer to build on 2 cores, of 0.35 ms).
+    // A thread each only where there is work enough: a thread for fewer
+    // lengths costs more to start than its share of the work.
     let threads = crate::cores::cores().min(reach / THREAD_LENGTHS).max(1);
     if threads == 1 {
         let mut scratch = Scratch::default();

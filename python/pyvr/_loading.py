@@ -229,7 +229,7 @@ class VolumeLoading:
         alone then fetch 16 bytes a sample too, as with supplied normals.
         Integer volumes (1 or 2 bytes a voxel) are packed so only where the
         native CPU march renders them, which reads no gradient otherwise
-        (fuel.vti as uint8, lit: 617 -> 73 ms at 512x512, docs/performance.md).
+        (docs/native-march.md).
         Elsewhere they keep their 1 or 2 bytes a voxel: 16 bytes a voxel
         was not measured against the neighbours' fetches on a GPU."""
         if (self._gradients_tried or self.volume is None or self.volume.normals is not None

@@ -53,24 +53,19 @@ PRECISIONS = ("auto", "float32", "float16", "fixed16")
 FIXED16_MAX_SPAN = 2.0
 
 
-# The last-level cache assumed where the system does not say (the 2-core
-# machine the storages were measured on has 32 MiB).
+# The last-level cache assumed where the system does not say.
 DEFAULT_CPU_CACHE = 32 * 2**20
 
 
-# At equal samples, fixed point's 8-byte texels were 3-8% slower than
-# float32's 16 while the latter took up to 108 MiB (192^3), 5% faster at
-# 256 MiB (256^3), on lavapipe with 32 MiB of L3 (benches/volume_size.py):
-# decoding costs more than the misses it saves until the texels are several
-# times the cache.
+# At equal samples fixed point's 8-byte texels are slower than float32's
+# 16 until the latter are several times the CPU's cache: decoding costs
+# more than the misses it saves (benches/volume_size.py).
 CACHE_FACTOR = 4
 
 
-# The most cache the rule above counts on. A VM reports its host's last
-# level cache, shared with every other guest: an Intel Xeon VM of 2 cores
-# reported 480 MiB, and there fixed point still reached float32's speed per
-# sample at 256^3 (0.99x, 5-10% slower up to 192^3), as on the AMD VM with
-# 32 MiB, where the rule was measured.
+# The most cache the rule above counts on: a VM reports its host's last
+# level cache, shared with every other guest, and fixed point's speed
+# there follows the guest's share, not the cache reported.
 TRUSTED_CPU_CACHE = 32 * 2**20
 
 

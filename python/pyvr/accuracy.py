@@ -355,7 +355,7 @@ def config_for_error(renderer, max_error_levels: float = 1.0, pilot: Optional[in
     if not device_limits()["cpu_device"]:
         # GPUs' texture units weigh texels in 8-bit fixed point; pilots that
         # all share that rounding cannot see the floor it puts under the
-        # error (the helix's 1-level target gave 3.7 levels on an H200).
+        # error (their 8-bit weights put a floor under the error that no step lowers).
         cfg = cfg.replace(exact_filtering=True)
     feats = scene_features(renderer)
     w0, h0 = renderer.width, renderer.height

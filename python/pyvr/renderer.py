@@ -307,9 +307,8 @@ class VolumeRenderer(VolumeLoading, FrameRendering):
         hold or from the values' central differences, from float32,
         float16, fixed16, uint8 or uint16 storage in one texture; the
         projections and the isosurface; and the same frames of bricked volumes,
-        brick after brick; 1.25x (float32) and 1.7x (fixed16)
-        the shader's speed per sample on the benchmark scene on a 2-core
-        AMD EPYC (docs/performance.md).
+        brick after brick, faster than the shader on lavapipe
+        (docs/performance.md).
         Images match the shader's within 0.25 level
         (measured: 0.0004 on most scenes); ``last_frame_stats["engine"]``
         says which ran ("native" or "gpu"). It keeps a volume's texels in

@@ -149,8 +149,8 @@ impl Texels for Rgba32Float<'_> {
 }
 
 /// One 64-bit gather of four lanes' texels reads all four channels of a
-/// corner: a quarter of float32's gathered elements. (Read a ray at a time
-/// as `Rgba32Float` is, a 128^3 volume's lit frame was 5-20% slower.)
+/// corner: a quarter of float32's gathered elements (reading a ray at a
+/// time, as `Rgba32Float` does, is slower for these 8-byte texels).
 pub struct Rgba16Snorm<'a>(pub &'a [[i16; 4]]);
 
 impl Texels for Rgba16Snorm<'_> {
@@ -512,9 +512,8 @@ impl<T: Texels> Texels for Apart<'_, T> {
 /// into a binary32's place take its exponent rebiased; a subnormal one is
 /// its fraction times 2^-24; infinities and NaNs take binary32's all-ones
 /// exponent. (Moving a subnormal half's bits makes a subnormal binary32,
-/// and a product reading one takes a microcode assist: the benchmark
-/// scene's float16 texels, whose values fall smoothly to 0, were read 14%
-/// slower so, 582 ms a frame against 503-511.)
+/// and a product reading one takes a microcode assist, which fields that
+/// fall smoothly to 0 would pay at many texels.)
 #[inline]
 #[target_feature(enable = "avx2,fma,f16c")]
 fn half_floats(x: __m256i) -> __m256 {
@@ -1783,9 +1782,8 @@ pub(super) unsafe fn gradient_at<T: Texels>(
 
 /// Bytes of texels between the samples of neighbouring rays from which the
 /// march prefetches each next sample's texels: rays that far apart share no
-/// cache lines, so each sample waits on its misses (a 128x128 pilot of the
-/// 256^3 lit benchmark volume took 30 ns a sample against 11 ns in a
-/// 512x512 frame, whose neighbouring rays lie 0.6 voxels apart).
+/// cache lines, so each sample waits on its misses (a small pilot of a
+/// large volume), where rays under a voxel apart share them.
 const PREFETCH_SPREAD_BYTES: f32 = 8.0;
 /// Storage under this many bytes stays in the caches, where prefetching
 /// would only add work.

@@ -16,11 +16,8 @@ use std::sync::Mutex;
 pub const WORKGROUP: u32 = 8;
 
 /// Workgroups run in tiles of GROUP_TILE x GROUP_TILE (main.wgsl's
-/// `group_origin`): on lavapipe the benchmark scene's balanced frame (256^3
-/// texels of 16 bytes, 512^2) took 489-508 ms against 547-566 ms in image
-/// rows (4 alternating runs), 1701-1707 against 1887-1957 ms at 1024^2 and
-/// 178-212 against 192-212 ms at 256^2. Tiles of 16 were slower (544-573
-/// ms), and Morton order within tiles of 8 no faster (504-518 ms).
+/// `group_origin`), not in image rows: rays marched close in time then
+/// cross nearby voxels, and a CPU's caches (lavapipe) keep them.
 pub const GROUP_TILE: u32 = 8;
 
 /// The workgroups a dispatch over `width` x `height` pixels needs: whole

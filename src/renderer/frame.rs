@@ -211,9 +211,9 @@ impl Renderer {
     }
 
     /// Copies the last dispatch's image into `out`, in its format, on every
-    /// core: the mapped readback memory is slow to read from one (copying a
-    /// 2048x2048 float image out of it took 25 ms on one core of the H200's
-    /// host, 3 ms on its 16). Returns the frame's statistics (largest step
+    /// core: the mapped readback memory is slow to read from one, and a large
+    /// image's copy on one core took longer than a GPU's frame. Returns the
+    /// frame's statistics (largest step
     /// count a truncated ray needed, samples).
     pub(super) fn read_image(&self, out: &mut Target) -> Result<(u32, u64), Error> {
         let f = &self.shader().frame;

@@ -19,25 +19,23 @@ use resources::{readback_buffer, CpuCopy, Fixed, OccSource, Occupancy, Output, R
 use std::sync::Arc;
 
 /// Leaping over empty cells makes every sample's loop heavier: it pays only
-/// when enough of the volume is empty. Measured on lavapipe (benchmark scene,
-/// 512^2, step 0.1): with 18.7% of cells empty, the leaps removed 3% of the
-/// samples and made the frame 25% slower.
+/// when enough of the volume is empty: with a fifth of the cells empty, the
+/// leaps save few samples and slow every other one (benches/scene_content.py).
 const SKIP_MIN_EMPTY: f64 = 0.25;
 
 /// Looking up every visible sample's cell for a uniform run pays only where
 /// enough visible cells are uniform. The share is SKIP_MIN_EMPTY's, not
-/// tuned: the Shepp-Logan phantom (48% uniform) gains 1.06x at step 0.04
-/// and 1.5x at 0.0025 (benches/uniform_runs.py).
+/// tuned (benches/uniform_runs.py measures what runs save).
 const LEAP_MIN_UNIFORM: f64 = 0.25;
 
 /// Seconds one pass of a long frame should take: about how long a Ctrl-C
 /// waits. Each pass costs every ray a state load and store and the device
-/// an idle moment: at 1 s the preset benchmark's longest frame
-/// (ultra_quality, 4.6 s on lavapipe) takes 5 passes and 0.2-1.1% longer.
+/// an idle moment, which at this length adds about 1% to a long frame.
 const PASS_SECONDS: f64 = 1.0;
 
-/// Planned samples per second assumed before a frame has been timed
-/// (lavapipe on two cores: about 1e8; GPUs are faster and soon measured).
+/// Planned samples per second assumed before a frame has been timed: a
+/// software renderer's order of magnitude (GPUs are faster, and measured
+/// at their first long frame).
 const INITIAL_SAMPLES_PER_SECOND: f64 = 1e8;
 
 /// Bytes of the frame statistics: the largest step count a truncated ray

@@ -130,8 +130,7 @@ fn marches_natively(dev: &Device, native: CpuCopy) -> bool {
 
 /// Subnormal floats to zero (keeping the sign): fields that fall off
 /// exponentially hold them far from their features, and on a CPU each
-/// operation reading one takes a microcode assist of ~100 cycles (the
-/// sparse helix's lit frames ran 1.6x slower with them). They stand for
+/// operation reading one takes a microcode assist. They stand for
 /// values under 1.2e-38, which GPUs that flush subnormals read as zero too.
 fn flush_subnormals(x: &mut [f32]) {
     for v in x {
@@ -483,8 +482,8 @@ impl VolumeGpu {
 
     /// Whether float32 values and their normals share one Rgba32Float texel
     /// (value, normal): then a lit sample makes one texture fetch instead of
-    /// two, which on lavapipe makes the benchmark scene's frames 1.3x faster
-    /// at every preset, and the normals keep f32 precision; it takes 16 bytes
+    /// two (docs/performance.md, "Memory and uploads"), and the normals keep
+    /// f32 precision; it takes 16 bytes
     /// a voxel instead of 8. Only where the device filters float32 textures
     /// and every value is finite (volumes with NaN are interpolated in the
     /// shader, which reads values alone) and the texels fit one upload.
@@ -615,8 +614,8 @@ fn extent_of([s0, s1, s2]: [usize; 3]) -> wgpu::Extent3d {
 /// 4 bytes per voxel: each normal's direction (normals are directions;
 /// VolumeView::normal reads them so too), its components to 1/127, where
 /// they cannot share the values' texels. The lighting error this allows is
-/// under 0.4% (against f32 normals: at most 1 level, mean 0.004), and on
-/// lavapipe the lit frame is 18% faster than with a separate Rgba16Float.
+/// under 0.4% (against f32 normals: at most 1 level, mean 0.004), with half
+/// the bytes a lit sample fetches of a separate Rgba16Float texture.
 /// Normals as Rgba8Snorm texels: each unit direction's components in codes
 /// of 1/127, and a fourth byte unused.
 fn packed_normals(n: &[f32]) -> Result<Vec<[i8; 4]>, Error> {
