@@ -100,29 +100,18 @@ impl Renderer {
             // The only engine: it renders every frame.
             return true;
         }
-        let projects = matches!(variant.model, Model::Mip | Model::MinIp | Model::Average);
-        let iso = variant.model == Model::Isosurface;
-        let composites = matches!(
-            variant.model,
-            Model::EmissionAbsorption | Model::Absorption | Model::Emission | Model::SingleScattering
-        );
+        // The native march runs every model and option; what it may lack is
+        // a volume's normals (kept with the texels only where it runs).
         // Projections take no light; single scattering reads no normals.
-        let shading = projects
+        let shading = variant.model.projects()
             || variant.model == Model::SingleScattering
-            || match variant.shading {
-                Shading::AmbientOnly => true,
-                // In the texels or apart.
-                Shading::Normals => cpu.has_normals(),
-                // From central differences of the values.
-                Shading::Gradient => composites || iso,
-            };
+            || variant.shading != Shading::Normals
+            || cpu.has_normals();
         // Back-to-front frames (whose variant never stops early) are marched
         // front to back: the same segments and the same sum, rounded in
         // another order.
         self.native_march
             && shading
-            && (projects || iso || composites)
-            && (!variant.pre_integrated || variant.model == Model::EmissionAbsorption)
             && !(variant.cell_rates && self.occupancy.majorants.is_empty())
             && cfg.max_steps <= crate::cpu::MAX_STEPS as i64
     }
