@@ -6,7 +6,8 @@
 
 use std::fmt::Write;
 
-const MODULES: [&str; 6] = ["avx2", "cells", "isosurface", "projection", "rays8", "tracking"];
+const MODULES: [&str; 10] =
+    ["cells", "codes", "compositing", "isosurface", "lighting", "ops", "projection", "rays8", "sampling", "tracking"];
 const INTRINSICS: &str = "use std::arch::x86_64::*;";
 const FEATURES: &str = "#[target_feature(enable = \"avx2,fma,f16c\")]";
 

@@ -15,7 +15,7 @@ fn march_project(r: Ray) {
     // A maximum (minimum) projection's ray that has read a value leaps a
     // cell whose values cannot pass it, and the cube of cells around it
     // where their bound cannot either. `occupancy` then holds each cell's
-    // bound and its cube's (src/renderer/resources.rs `ProjectionBounds`).
+    // bound and its cube's (src/renderer/resources/stored.rs `ProjectionBounds`).
     let leaps = SKIP_EMPTY && MODEL != MODEL_AVERAGE;
     var stopped = false;
     var taken = 0u;

@@ -7,10 +7,7 @@
 //! (central differences) where the texels hold none (under a directional
 //! or a point light).
 
-use super::avx2::{
-    channel, corners, gradient_at, int_lanes, lanes, lanes_of, lit_by, point_light_travel, truncated_here, voxel_axes,
-    Spans, Texels,
-};
+use super::{compositing::*, lighting::*, ops::*, sampling::*};
 use super::{Frame, Stats, TILE};
 use crate::plan::ISO_BISECTIONS;
 use std::arch::x86_64::*;
@@ -21,7 +18,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 /// miss) in `depth`; stops early (its pixels then are garbage) once `halt`
 /// is set.
 ///
-/// In a brick's march (`stopped` given, as `super::avx2::march` takes it)
+/// In a brick's march (`stopped` given, as `super::ops::march` takes it)
 /// `out` holds each ray's state before and after: (the bracket's lower end,
 /// its value, 1 where that value was read, 1 once the ray has started), or
 /// for a ray that has ended (its bit in `stopped`) its pixel's colour and

@@ -28,18 +28,26 @@
 //! (tests/test_native_march.py, tests/test_bricks.py).
 
 #[cfg(target_arch = "x86_64")]
-mod avx2;
-#[cfg(target_arch = "x86_64")]
 mod cells;
 mod clear;
+#[cfg(target_arch = "x86_64")]
+mod codes;
+#[cfg(target_arch = "x86_64")]
+mod compositing;
 mod footprint;
 #[cfg(target_arch = "x86_64")]
 mod isosurface;
 mod lanes;
 #[cfg(target_arch = "x86_64")]
+mod lighting;
+#[cfg(target_arch = "x86_64")]
+mod ops;
+#[cfg(target_arch = "x86_64")]
 mod projection;
 #[cfg(target_arch = "x86_64")]
 mod rays8;
+#[cfg(target_arch = "x86_64")]
+mod sampling;
 #[cfg(target_arch = "x86_64")]
 mod tracking;
 
@@ -103,52 +111,52 @@ impl Texels {
 
 /// `$call` with `$t` bound to the march's reader of `$volume`'s texels, and
 /// of its normals stored apart where `$lit` (the frame reads them), from
-/// the `avx2` module in scope (the AVX2 path's, or the portable path's).
+/// the `codes` and `sampling` modules in scope (the AVX2 path's, or the portable path's).
 macro_rules! with_reader {
     ($volume:expr, $lit:expr, $t:ident => $call:expr) => {
         match (&$volume.texels, $volume.normals.as_deref().filter(|_| $lit)) {
             (Texels::R8Unorm(x), Some(n)) => {
-                let $t = &avx2::Apart(avx2::R8Unorm(x), n);
+                let $t = &codes::Apart(codes::R8Unorm(x), n);
                 $call
             }
             (Texels::R16Unorm(x), Some(n)) => {
-                let $t = &avx2::Apart(avx2::R16Unorm(x), n);
+                let $t = &codes::Apart(codes::R16Unorm(x), n);
                 $call
             }
             (Texels::R32Float(x), Some(n)) => {
-                let $t = &avx2::Apart(avx2::R32Float(x), n);
+                let $t = &codes::Apart(sampling::R32Float(x), n);
                 $call
             }
             (Texels::Rgba32Float(x), _) => {
-                let $t = &avx2::Rgba32Float(x);
+                let $t = &sampling::Rgba32Float(x);
                 $call
             }
             (Texels::Rgba16Snorm(x), _) => {
-                let $t = &avx2::Rgba16Snorm(x);
+                let $t = &sampling::Rgba16Snorm(x);
                 $call
             }
             (Texels::R32Float(x), _) => {
-                let $t = &avx2::R32Float(x);
+                let $t = &sampling::R32Float(x);
                 $call
             }
             (Texels::R16Snorm(x), _) => {
-                let $t = &avx2::R16Snorm(x);
+                let $t = &codes::R16Snorm(x);
                 $call
             }
             (Texels::R8Unorm(x), _) => {
-                let $t = &avx2::R8Unorm(x);
+                let $t = &codes::R8Unorm(x);
                 $call
             }
             (Texels::R16Unorm(x), _) => {
-                let $t = &avx2::R16Unorm(x);
+                let $t = &codes::R16Unorm(x);
                 $call
             }
             (Texels::R16Float(x), _) => {
-                let $t = &avx2::R16Float(x);
+                let $t = &codes::R16Float(x);
                 $call
             }
             (Texels::Rgba16Float(x), _) => {
-                let $t = &avx2::Rgba16Float(x);
+                let $t = &codes::Rgba16Float(x);
                 $call
             }
         }
@@ -168,7 +176,7 @@ macro_rules! march_with {
         } else if frame.unbiased {
             with_reader!(frame.volume, frame.lit, t => tracking::track(frame, t, col0, row, out, halt, stopped))
         } else {
-            with_reader!(frame.volume, frame.lit, t => avx2::march(frame, clear, t, col0, row, out, halt, stopped))
+            with_reader!(frame.volume, frame.lit, t => compositing::march(frame, clear, t, col0, row, out, halt, stopped))
         }
     }};
 }

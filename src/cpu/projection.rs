@@ -9,15 +9,15 @@
 //! its maximum (minimum) so far (`Frame::bounds`): the same pixel from
 //! fewer reads, by the shader's rule.
 
-use super::avx2::{channel, corners, lanes, lanes_of, leave_row, voxel_axes, Spans, Texels};
 use super::cells::Cells;
+use super::{compositing::*, ops::*, sampling::*};
 use super::{Frame, Model, Stats, TILE};
 use std::arch::x86_64::*;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Pixels col0..col0 + 8 of `row` of a projection (`f.model` is Mip, MinIp
 /// or Average); stops early (its pixels then are garbage) once `halt` is set.
-/// In a brick's march (`stopped` given, as `super::avx2::march` takes it)
+/// In a brick's march (`stopped` given, as `super::ops::march` takes it)
 /// `out` holds each ray's state before and after: (the maximum or minimum,
 /// 1 where a value was read) or (the sum of value times length, the length).
 /// A brick's maximum that reaches 1 (minimum 0) stops its ray as in one

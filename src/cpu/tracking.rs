@@ -4,12 +4,9 @@
 //! so both engines draw the same points up to the rounding of their
 //! logarithms; then the eight points are read, lit and composited together.
 
-use super::avx2::{
-    channel, corners, exp_nonpositive, lanes_of, leave_composited, ln, lut_rgba, neg_log_one_minus, sample_light,
-    voxel_axes, Spans, Texels,
-};
 use super::cells::byte;
 use super::rays8::hash32;
+use super::{compositing::*, lighting::*, ops::*, sampling::*};
 use super::{Frame, Model, Stats, TILE};
 use crate::occupancy::UNIFORM_FLAG;
 use std::arch::x86_64::*;
@@ -47,7 +44,7 @@ fn next_gap(state: __m256i, rate: __m256) -> (__m256, __m256i) {
 
 /// Pixels col0..col0 + 8 of `row` of an unbiased frame (emission–absorption,
 /// absorption or emission, either marching order; one pass). With
-/// `stopped_before` (a brick of a bricked frame, as `avx2::march` takes
+/// `stopped_before` (a brick of a bricked frame, as `compositing::march` takes
 /// it): `out` holds each ray's state, which the walk goes on from and
 /// leaves there, and the lanes whose rays have stopped; back to front, the
 /// bricks come far to near. A block's points come from its own stream, so
