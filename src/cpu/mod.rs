@@ -193,7 +193,6 @@ mod portable {
     ///
     /// # Safety
     /// The frame passed `super::check`.
-    #[allow(clippy::too_many_arguments)]
     pub(super) unsafe fn march_row(
         frame: &Frame,
         clear: &clear::Clear,
