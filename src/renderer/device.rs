@@ -99,7 +99,8 @@ pub struct Device {
 
 impl Device {
     /// The adapter (unless `choice` is native), else the native engine
-    /// alone where this CPU runs it; else the adapter's error.
+    /// alone, which runs on every CPU. Errors other than a missing or
+    /// failing adapter (a bad PYVR_BACKEND) are the caller's.
     pub fn open(choice: EngineChoice) -> Result<Device, Error> {
         let opened = match choice {
             EngineChoice::Auto => GpuContext::get(),
