@@ -18,9 +18,13 @@ def load_dicom_series(path, *, series_uid: Optional[str] = None) -> GridImage:
     vector, +x for axial slices), axis 1 along the columns' (second vector),
     axis 2 along the normal (their cross product), in patient millimetres.
     Spacing: PixelSpacing (column spacing for x, row spacing for y) and the
-    median distance between slice positions. RescaleSlope/RescaleIntercept
-    are applied (CT values in Hounsfield units); integer results stay
-    integers. A folder with several series needs ``series_uid``.
+    distance between slice positions, which must be one grid: slices
+    parallel (the same ImageOrientationPatient), one per position, evenly
+    spaced (within 1% of the gap); anything else raises FileFormatError
+    naming the slices, rather than loading a distorted volume.
+    RescaleSlope/RescaleIntercept are applied (CT values in Hounsfield
+    units); integer results stay integers. A folder with several series
+    needs ``series_uid``.
     """
     pydicom = require("pydicom", "dicom", "Reading DICOM")
     p = Path(path)
@@ -47,10 +51,14 @@ def load_dicom_series(path, *, series_uid: Optional[str] = None) -> GridImage:
     if not slices:
         raise ValueError(f"{p} has no series {series_uid!r}; it holds {uids}")
     first = slices[0][1]
-    try:
-        orient = np.array(first.ImageOrientationPatient, np.float64).reshape(2, 3)
-    except AttributeError:
-        orient = np.array([[1, 0, 0], [0, 1, 0]], np.float64)
+    orient = _orientation(slices[0][0], first)
+    for f, ds in slices[1:]:
+        if np.abs(_orientation(f, ds) - orient).max() > ORIENTATION_TOLERANCE:
+            raise FileFormatError(
+                f"{f}: its ImageOrientationPatient {list(_orientation(f, ds).ravel())} differs from "
+                f"{slices[0][0].name}'s {list(orient.ravel())}: the slices are not parallel, so they do not "
+                "form one grid (a localizer or a reformat mixed into the series?)"
+            )
     normal = np.cross(orient[0], orient[1])
 
     def position(ds):
@@ -66,9 +74,9 @@ def load_dicom_series(path, *, series_uid: Optional[str] = None) -> GridImage:
             raise FileFormatError(f"{f}: slice of {ds.Rows}x{ds.Columns} in a series of {rows}x{cols}")
     check_shape(p, (cols, rows, len(slices)), np.float32)
     z = np.array([position(ds) @ normal for _, ds in slices])
-    dz = float(np.median(np.diff(z))) if len(z) > 1 else float(getattr(first, "SliceThickness", 1.0) or 1.0)
-    if len(z) > 1 and not dz > 0:
-        raise FileFormatError(f"{p}: slices share one position; a series needs distinct slice positions")
+    if not np.all(np.isfinite(z)):
+        raise FileFormatError(f"{p}: a slice's ImagePositionPatient is not finite")
+    dz = _slice_gap(p, [f for f, _ in slices], z) if len(z) > 1 else float(getattr(first, "SliceThickness", 1.0) or 1.0)
     try:
         sy, sx = (float(v) for v in first.PixelSpacing)
     except AttributeError:
@@ -83,6 +91,8 @@ def load_dicom_series(path, *, series_uid: Optional[str] = None) -> GridImage:
             raise FileFormatError(f"{f}: cannot decode its pixels ({type(e).__name__}: {e})") from None
         slope = float(getattr(ds, "RescaleSlope", 1) or 1)
         icpt = float(getattr(ds, "RescaleIntercept", 0) or 0)
+        if not (np.isfinite(slope) and np.isfinite(icpt)):
+            raise FileFormatError(f"{f}: RescaleSlope {slope} and RescaleIntercept {icpt} must be finite numbers")
         slope_any |= slope != 1
         icpt_any |= icpt != 0
         planes.append((px, slope, icpt))
@@ -107,3 +117,48 @@ def load_dicom_series(path, *, series_uid: Optional[str] = None) -> GridImage:
         value_unit="HU" if modality == "CT" else None,
         extra={"orientation": orient.copy(), "modality": modality, "series_uid": series_uid},
     )
+
+
+# Direction cosines are written with a few decimals; two slices of one
+# acquisition agree to far better than this.
+ORIENTATION_TOLERANCE = 1e-4
+# Slice positions are written to a hundredth of a millimetre or finer: gaps
+# within 1% of the series' gap (or 0.01 mm) are one grid.
+GAP_TOLERANCE = 0.01
+
+
+def _orientation(f, ds) -> np.ndarray:
+    """The slice's two direction cosines (rows, columns), checked."""
+    try:
+        o = np.array(ds.ImageOrientationPatient, np.float64).reshape(2, 3)
+    except AttributeError:
+        return np.array([[1, 0, 0], [0, 1, 0]], np.float64)
+    except (TypeError, ValueError):
+        raise FileFormatError(f"{f}: ImageOrientationPatient must be six numbers") from None
+    n = np.cross(o[0], o[1])
+    if not (np.all(np.isfinite(o)) and np.linalg.norm(n) > 0.5):
+        raise FileFormatError(f"{f}: ImageOrientationPatient {list(o.ravel())} is not two unit directions at right angles")
+    return o
+
+
+def _slice_gap(p, files, z) -> float:
+    """The one distance between neighbouring slices (sorted positions
+    ``z``), or FileFormatError naming the slices that break the grid."""
+    gaps = np.diff(z)
+    dz = float(np.median(gaps))
+    tolerance = max(GAP_TOLERANCE * abs(dz), 0.01)
+    k = int(np.argmin(gaps))
+    if not gaps[k] > tolerance:
+        raise FileFormatError(
+            f"{p}: {files[k].name} and {files[k + 1].name} lie at the same position ({z[k]:.4g} mm along the "
+            "slice normal): a series holds one slice per position (two acquisitions mixed? pass series_uid=, "
+            "or remove the repeated slices)"
+        )
+    k = int(np.argmax(np.abs(gaps - dz)))
+    if abs(gaps[k] - dz) > tolerance:
+        raise FileFormatError(
+            f"{p}: the gap between {files[k].name} and {files[k + 1].name} is {gaps[k]:.4g} mm where the "
+            f"series' is {dz:.4g} mm: slices missing or unevenly spaced do not form one grid (resample the "
+            "series to even spacing first)"
+        )
+    return dz
