@@ -185,6 +185,9 @@ def test_background_composites_over_a_colour():
     assert (u8[..., 3] == 255).all() and (u8[0, 0, :3] == 255).all()
     with pytest.raises(ValueError, match="background"):
         r.render(background=(2, 0, 0))
+    # matplotlib's "none" is no background: the transparent frame, not black.
+    for none in ("none", "transparent", "None"):
+        np.testing.assert_array_equal(r.render(background=none), r.render())
 
 
 def test_camera_fit_frames_the_box_at_any_scale():

@@ -32,6 +32,11 @@ def mean_image(total: np.ndarray, n: int) -> np.ndarray:
 
 
 def _colour(c):
+    """A background as (r, g, b), or None for none: matplotlib's "none"
+    (and "transparent") is no background, not its colour (0, 0, 0) made
+    opaque."""
+    if isinstance(c, str) and c.strip().lower() in ("none", "transparent"):
+        return None
     if isinstance(c, str):
         try:
             from matplotlib.colors import to_rgb

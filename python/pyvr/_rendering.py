@@ -123,7 +123,8 @@ class FrameRendering:
         (default, row 0 = bottom, pyvr's order) or "upper" (row 0 = top).
         background: an RGB colour (three numbers in [0, 1], or a name such as
         "white" when matplotlib is installed) to composite the frame over;
-        the result is opaque. Default None: transparent, straight RGBA.
+        the result is opaque. Default None (or "none"): transparent,
+        straight RGBA.
         size: (width, height) to render this frame at instead of the
         renderer's own (the same view, e.g. a cheap preview while a user
         drags); config: a RenderConfig for this frame only. Neither changes
