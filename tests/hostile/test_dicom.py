@@ -86,3 +86,23 @@ def test_a_rescale_that_is_not_finite(tmp_path, field):
         pydicom.config.settings.writing_validation_mode = mode
     with pytest.raises(FileFormatError, match=r"s1\.dcm: RescaleSlope .* must be finite"):
         load_dicom_series(folder)
+
+
+def test_an_integral_rescale_past_every_integer_type(tmp_path):
+    # An intercept of 1e30 is an integer no integer type holds: float32
+    # values (it ended the loader with StopIteration, which ends a map()
+    # over many series silently).
+    folder = series(tmp_path)
+    for n in range(4):
+        edit(folder, f"s{n}.dcm", RescaleIntercept="1e30")
+    img = load_dicom_series(folder)
+    assert img.data.dtype == np.float32
+    np.testing.assert_allclose(img.data, 1e30, rtol=1e-6)
+
+
+def test_a_rescale_past_float32(tmp_path):
+    folder = series(tmp_path)
+    edit(folder, "s0.dcm", RescaleSlope="1e38")
+    with pytest.raises(FileFormatError, match="beyond float32's range"):
+        load_dicom_series(folder)
+

@@ -101,8 +101,14 @@ def load_dicom_series(path, *, series_uid: Optional[str] = None) -> GridImage:
     if integral:
         lo = min(int(px.min()) + int(i) for px, _, i in planes)
         hi = max(int(px.max()) + int(i) for px, _, i in planes)
-        out_dtype = next(t for t in (np.int16, np.uint16, np.int32, np.int64)
-                         if np.iinfo(t).min <= lo and hi <= np.iinfo(t).max)
+        fits = [t for t in (np.int16, np.uint16, np.int32, np.int64) if np.iinfo(t).min <= lo and hi <= np.iinfo(t).max]
+        # (Past int64, as floats: an intercept of 1e30 is integral too.)
+        integral = bool(fits)
+        out_dtype = fits[0] if fits else np.float32
+    if not integral:
+        top = max(max(abs(float(px.min())), abs(float(px.max()))) * abs(s) + abs(i) for px, s, i in planes)
+        if not top <= float(np.finfo(np.float32).max):
+            raise FileFormatError(f"{p}: its rescaled values reach {top:.3g}, beyond float32's range")
     vol = np.empty((cols, rows, len(planes)), out_dtype)
     for k, (px, slope, icpt) in enumerate(planes):
         # pixel_array is (rows, columns): row index runs along y, column along x.
