@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Style and lint checks CI enforces: rustfmt (rustfmt.toml), clippy with
 # warnings as errors (allowed lints and why: Cargo.toml [lints.clippy]),
-# ruff (pyproject.toml [tool.ruff]), and no import circles in the package. Needs the .venv scripts/setup.sh makes.
+# ruff (pyproject.toml [tool.ruff]), no import circles in the package, and
+# Cargo.toml's rust-version. Needs the .venv scripts/setup.sh makes.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 if command -v rustup >/dev/null; then
@@ -19,3 +20,5 @@ echo "== ruff check"
 .venv/bin/ruff check --quiet python tests benches examples tools
 echo "== no import circles in the package (deferred imports counted)"
 .venv/bin/python tools/import_graph.py --all
+echo "== rust-version is what the locked dependencies declare"
+.venv/bin/python tools/rust_version.py

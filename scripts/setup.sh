@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
-# Installs everything pyvr needs on a fresh Debian/Ubuntu machine that has
-# Rust (cargo) and Python 3.11+: a software Vulkan driver when no GPU driver
-# is present, Mesa's EGL (for the OpenGL reference renderer in the tests), Xvfb
-# (a virtual display for the interface's window test),
-# a virtual environment in .venv, and the release build of pyvr into it.
+# Installs everything pyvr's tests and demo need on a fresh Debian/Ubuntu
+# machine that has Rust (cargo) and Python 3.11+: a software Vulkan driver
+# when no GPU driver is present, Mesa's EGL (for the OpenGL reference
+# renderer in the tests), Xvfb (a virtual display for the interface's window
+# test), the wheel (scripts/wheel.sh), and a virtual environment in .venv
+# with that wheel installed as a user installs it.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -31,17 +32,27 @@ if [ ! -x .venv/bin/python ]; then
     echo "== creating .venv"
     "$PY" -m venv .venv
 fi
-echo "== installing Python packages"
-.venv/bin/python -m pip install -q --upgrade pip
-# The file-format extras (nifti, nrrd, dicom, tiff, zarr) are what the loader tests read and write;
-# tqdm, imageio(-ffmpeg), jupyter_rfb and the kernel packages are what the animation and notebook tests use;
-# dask, distributed and xarray what the out-of-core and cluster tests use.
-.venv/bin/python -m pip install -q "maturin>=1.7,<2" numpy scipy pillow matplotlib moderngl pytest hypothesis \
-    nibabel pynrrd pydicom tifffile zarr tqdm imageio imageio-ffmpeg jupyter_rfb ipywidgets nbclient nbformat ipykernel \
-    "dask[array]" distributed xarray ruff
 
-echo "== building pyvr (release)"
-start=$(date +%s)
-# Into this .venv even when another virtual environment is active.
-VIRTUAL_ENV="$PWD/.venv" .venv/bin/maturin develop --release -q
-echo "== build took $(( $(date +%s) - start )) s"
+# pyvr as users install it: the wheel scripts/wheel.sh builds.
+bash scripts/wheel.sh
+wheel=$(ls "$PWD"/dist/*.whl)
+
+# PATH without any folder holding cargo or rustc: the install must not be
+# able to build anything from source.
+no_rust_path() {
+    local out="" dir
+    IFS=: read -ra dirs <<<"$PATH"
+    for dir in "${dirs[@]}"; do
+        [ -x "$dir/cargo" ] || [ -x "$dir/rustc" ] || out="${out:+$out:}$dir"
+    done
+    echo "$out"
+}
+echo "== installing the wheel into .venv, with the extras the tests use (no Rust toolchain on PATH)"
+.venv/bin/python -m pip install -q --disable-pip-version-check --upgrade pip
+# An earlier install (a `maturin develop` one, or the old distribution name) would shadow the wheel.
+.venv/bin/python -m pip uninstall -q -y pyvr pyvr-rs >/dev/null 2>&1 || true
+# The test extra: moderngl (the reference renderer), the file-format readers the loader tests read and
+# write, tqdm, imageio, jupyter_rfb and the kernel packages the animation and notebook tests use, dask,
+# distributed and xarray for the out-of-core and cluster tests. ruff is the linter scripts/lint.sh runs.
+PATH=$(no_rust_path) .venv/bin/python -m pip install -q --disable-pip-version-check --only-binary pyvr-rs \
+    "$wheel[test]" ruff

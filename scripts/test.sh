@@ -1,29 +1,39 @@
 #!/usr/bin/env bash
 # Runs every test: the Rust core (cargo test, including the GPU path against
-# the f64 integrator) and the Python suite (API, closed forms, and the
-# moderngl reference cross-validation). Runs scripts/setup.sh first, which
-# installs what is missing and rebuilds pyvr if its sources changed.
+# the f64 integrator), then the Python suite (API, closed forms, the moderngl
+# reference) against the wheel installed in .venv, as users install it:
+# once with this machine's Vulkan driver, every frame on the shader engine,
+# and once with no Vulkan driver visible, where the native CPU engine
+# renders every frame. Then the native march's portable path, and lint.
+# Runs scripts/setup.sh first, which installs what is missing and rebuilds
+# the wheel if its sources changed.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+source scripts/progress.sh
 # Mesa's Vulkan loader probes for a display and complains without this.
 export XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-$(mktemp -d)}
 bash scripts/setup.sh
 export PYVR_BACKEND=${PYVR_BACKEND:-vulkan}
+quietly "cargo test: compiling the tests" cargo test --locked --no-run
 echo "== cargo test"
-cargo test --quiet
-echo "== pytest"
-.venv/bin/python -m pytest tests -q
-# On a machine whose only adapter is a CPU the native march renders the
-# frames it covers: the suite runs again with every frame on the shader,
-# which is what a GPU runs.
-if .venv/bin/python -c "import sys; from pyvr.renderer import device_limits; sys.exit(not device_limits()['native_march'])"; then
-    echo "== pytest, every frame on the shader (PYVR_NATIVE_MARCH=0)"
-    PYVR_NATIVE_MARCH=0 .venv/bin/python -m pytest tests -q
-    # A machine with no Vulkan driver at all: the native engine alone
-    # renders every frame (tests of the shader engine skip, saying why).
-    echo "== pytest, no GPU adapter (VK_ICD_FILENAMES points at nothing)"
-    VK_ICD_FILENAMES=/nonexistent .venv/bin/python -m pytest tests -q
-fi
+cargo test --locked --quiet
+# The suite must import the installed wheel, never the source tree.
+.venv/bin/python - <<'PY'
+import pathlib, sys
+import pyvr
+where = pathlib.Path(pyvr.__file__).resolve()
+if "site-packages" not in where.parts:
+    sys.exit(f"pyvr imports from {where}, not from the installed wheel")
+print(f"== pytest against the installed wheel: pyvr-rs {pyvr.__version__} ({where.parent})")
+PY
+# On a GPU every frame is the shader's anyway; on a CPU adapter (lavapipe)
+# the native march would take them, so it is switched off here.
+echo "== pytest, this machine's Vulkan driver, every frame on the shader (PYVR_NATIVE_MARCH=0)"
+PYVR_NATIVE_MARCH=0 .venv/bin/python -m pytest tests -q
+# A machine with no Vulkan driver at all: the native engine alone renders
+# every frame (tests of the shader engine skip, saying why).
+echo "== pytest, no Vulkan driver (VK_ICD_FILENAMES points at nothing): the native engine"
+VK_ICD_FILENAMES=/nonexistent .venv/bin/python -m pytest tests -q
 # The native march's portable path (CPUs without AVX2, ARM) against the
 # shader and the single texture, as the AVX2 path is held above.
 echo "== pytest, the native march's portable path (PYVR_NATIVE_LANES=portable)"

@@ -297,7 +297,7 @@ def test_detection_by_content(tmp_path):
 ])
 def test_missing_extra_names_it(monkeypatch, tmp_path, module, extra, call):
     monkeypatch.setitem(sys.modules, module, None)  # import fails as if not installed
-    with pytest.raises(ImportError, match=rf"pip install 'pyvr\[{extra}\]'"):
+    with pytest.raises(ImportError, match=rf"pip install 'pyvr-rs\[{extra}\]'"):
         call(tmp_path)
 
 

@@ -5,13 +5,21 @@ wgpu compute shaders. ``import pyvr`` needs numpy and scipy only; matplotlib,
 Pillow and moderngl are imported when a feature needs them.
 """
 
+import os as _os
+
+# Mesa's Vulkan device-select layer connects to Wayland to find the display's
+# GPU, and without a valid XDG_RUNTIME_DIR (scripts, SSH sessions, services)
+# it prints "XDG_RUNTIME_DIR is invalid" on every Vulkan instance. It cannot
+# use Wayland there anyway, and wgpu picks its adapter itself: turn it off.
+if not _os.path.isdir(_os.environ.get("XDG_RUNTIME_DIR") or "/nonexistent"):
+    _os.environ.setdefault("NODEVICE_SELECT", "1")
+
 from . import bricks, camera, dataloaders, datasets, distributed, lighting, moderngl_renderer, transferfunctions, volume
 from .animation import save_animation
 from .config import RenderConfig
 from .dataloaders import load
+from ._core import __version__
 from .renderer import VolumeRenderer
-
-__version__ = "0.5.0"
 
 
 def __getattr__(name):

@@ -5,11 +5,11 @@ import importlib
 
 
 def require(module: str, extra: str, what: str):
-    """Import ``module`` or raise ImportError naming ``pip install pyvr[extra]``."""
+    """Import ``module`` or raise ImportError naming ``pip install pyvr-rs[extra]``."""
     try:
         return importlib.import_module(module)
     except ImportError as e:
         raise ImportError(
             f"{what} needs the optional package '{module.split('.')[0]}': "
-            f"pip install 'pyvr[{extra}]'"
+            f"pip install 'pyvr-rs[{extra}]'"
         ) from e

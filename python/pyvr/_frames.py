@@ -41,7 +41,7 @@ def _colour(c):
         try:
             from matplotlib.colors import to_rgb
         except ImportError as e:
-            raise ImportError("colour names need matplotlib: pip install 'pyvr[plot]', or give (r, g, b)") from e
+            raise ImportError("colour names need matplotlib: pip install 'pyvr-rs[plot]', or give (r, g, b)") from e
         try:
             return to_rgb(c)
         except ValueError:
@@ -73,7 +73,7 @@ def _progress(progress, unit="frame", desc="render_path"):
         from tqdm.auto import tqdm
     except ImportError:
         if progress:
-            raise ImportError("progress bars need tqdm: pip install 'pyvr[progress]'") from None
+            raise ImportError("progress bars need tqdm: pip install 'pyvr-rs[progress]'") from None
         return None
     return lambda total: tqdm(total=total, unit=unit, desc=desc)
 

@@ -6,7 +6,7 @@
 Frames are written as they arrive from the iterable, so a long
 ``render_path`` streams to MP4 without holding the video in memory (GIF
 files are assembled by Pillow when the last frame is in). Needs imageio:
-``pip install 'pyvr[animation]'`` (MP4 also needs its ffmpeg plugin,
+``pip install 'pyvr-rs[animation]'`` (MP4 also needs its ffmpeg plugin,
 ``imageio-ffmpeg``, which that extra installs).
 """
 

@@ -1,5 +1,5 @@
 """Sort-last rendering on a dask.distributed cluster (``pip install
-'pyvr[distributed]'``).
+'pyvr-rs[distributed]'``).
 
 :func:`render` cuts a volume whose data is a dask array (or a zarr array, a
 memmap, any array pyvr.bricks reads) into bricks and renders each brick on a

@@ -7,7 +7,7 @@ Drag with the left button to rotate (trackball), scroll to zoom. While the
 mouse drags or the wheel turns, frames are rendered cheaper (see
 ``pyvr.interaction.DragQuality``) and full quality returns on release, or
 0.5 s after the last scroll. The view is a ``jupyter_rfb.RemoteFrameBuffer``
-(an ipywidgets widget): ``pip install 'pyvr[notebook]'``.
+(an ipywidgets widget): ``pip install 'pyvr-rs[notebook]'``.
 
 With ``refine_frames=n`` the view refines itself while it stands still:
 after the full frame it renders unbiased frames (``RenderConfig.unbiased``)

@@ -324,7 +324,7 @@ pub unsafe fn march<T: Texels>(
     let mut steps = 0u32;
     while _mm256_movemask_ps(active) != 0 {
         steps = steps.wrapping_add(1);
-        if steps % 1024 == 0 && halt.load(Ordering::Relaxed) {
+        if steps.is_multiple_of(1024) && halt.load(Ordering::Relaxed) {
             break;
         }
         taken = _mm256_sub_epi32(taken, _mm256_castps_si256(active));

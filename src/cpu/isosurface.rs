@@ -127,7 +127,7 @@ pub unsafe fn iso<T: Texels>(
             break;
         }
         steps = steps.wrapping_add(1);
-        if steps % 1024 == 0 && halt.load(Ordering::Relaxed) {
+        if steps.is_multiple_of(1024) && halt.load(Ordering::Relaxed) {
             break;
         }
         let at = _mm256_blendv_ps(rays.chord, midpoint(i), inside);

@@ -84,7 +84,7 @@ pub unsafe fn project<T: Texels>(
     while _mm256_movemask_ps(_mm256_andnot_ps(stopped, going)) != 0 {
         let active = _mm256_andnot_ps(stopped, going);
         steps = steps.wrapping_add(1);
-        if steps % 1024 == 0 && halt.load(Ordering::Relaxed) {
+        if steps.is_multiple_of(1024) && halt.load(Ordering::Relaxed) {
             break;
         }
         let (start_at, seg) = spans.span(i);

@@ -5,7 +5,7 @@ Each reader returns a :class:`GridImage` (voxels with axis 0 along x, and
 the physical spacing, origin and units); :func:`load` turns one into a
 :class:`~pyvr.volume.Volume`. Readers of formats with a library of their
 own import it when called; a missing one raises ImportError naming the
-extra to install (``pip install 'pyvr[nifti]'`` etc.).
+extra to install (``pip install 'pyvr-rs[nifti]'`` etc.).
 """
 
 from .arrays import load_npy, load_zarr

@@ -1,5 +1,5 @@
 """Arrays saved as arrays: numpy's ``.npy``/``.npz`` and zarr (``pip
-install 'pyvr[zarr]'``). Their axes are taken in pyvr's order (axis 0 along
+install 'pyvr-rs[zarr]'``). Their axes are taken in pyvr's order (axis 0 along
 x), as an array handed to ``Volume`` is."""
 
 from pathlib import Path

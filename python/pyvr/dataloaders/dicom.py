@@ -1,5 +1,5 @@
 """DICOM series (a folder of slices, e.g. one CT or MR scan) through
-pydicom (``pip install 'pyvr[dicom]'``)."""
+pydicom (``pip install 'pyvr-rs[dicom]'``)."""
 
 from pathlib import Path
 from typing import Optional

@@ -1,4 +1,4 @@
-"""NIfTI-1/2 (``.nii``, ``.nii.gz``) through nibabel (``pip install 'pyvr[nifti]'``)."""
+"""NIfTI-1/2 (``.nii``, ``.nii.gz``) through nibabel (``pip install 'pyvr-rs[nifti]'``)."""
 
 from pathlib import Path
 from typing import Optional

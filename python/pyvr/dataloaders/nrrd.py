@@ -1,5 +1,5 @@
 """NRRD (``.nrrd``, and ``.nhdr`` with its detached data, raw or gzip)
-through pynrrd (``pip install 'pyvr[nrrd]'``).
+through pynrrd (``pip install 'pyvr-rs[nrrd]'``).
 
 pynrrd parses the header; the data is read here, so that a header that
 lies cannot make the reader hang, inflate more than it declares, or read

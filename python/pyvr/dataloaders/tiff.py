@@ -1,4 +1,4 @@
-"""TIFF stacks (microscopy) through tifffile (``pip install 'pyvr[tiff]'``)."""
+"""TIFF stacks (microscopy) through tifffile (``pip install 'pyvr-rs[tiff]'``)."""
 
 from pathlib import Path
 

@@ -3,7 +3,7 @@
 >>> from pyvr.interface import InteractiveVolumeRenderer
 >>> InteractiveVolumeRenderer(volume).show()
 
-Needs matplotlib and Pillow: ``pip install 'pyvr[plot]'``. For Jupyter,
+Needs matplotlib and Pillow: ``pip install 'pyvr-rs[plot]'``. For Jupyter,
 see ``pyvr.notebook``.
 """
 
