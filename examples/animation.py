@@ -1,12 +1,15 @@
-"""A turntable animation: a camera path rendered frame by frame with a
+"""
+A turntable animation
+=====================
+
+A turntable animation: a camera path rendered frame by frame with a
 progress bar and written to GIF and MP4 as the frames arrive.
 
-Renders ../shared/data/fuel.vti (a real 64^3 simulation) when present, else
-a synthetic volume, with a light that follows the camera.
+Renders fuel.vti (a real 64^3 simulation, shipped with pyvr), with a light that follows the camera.
 Writes out/orbit.gif and out/orbit.mp4 (or the paths given).
 
 Run: .venv/bin/python examples/animation.py [--size 320] [--frames 48] [--out out/orbit.gif out/orbit.mp4]
-Needs: pip install 'pyvr[animation,progress]'
+Needs: pip install 'pyvr-rs[animation,progress]'
 """
 
 import argparse
@@ -16,26 +19,19 @@ import pyvr
 from _common import out_path
 from pyvr import RenderConfig, VolumeRenderer, save_animation
 from pyvr.camera import Camera, CameraPath
-from pyvr.datasets import compute_normal_volume, create_sample_volume
 from pyvr.lighting import Light
 from pyvr.transferfunctions import ColorTransferFunction, OpacityTransferFunction
-from pyvr.volume import Volume
 
-FUEL = os.path.join(os.path.dirname(__file__), "..", "..", "shared", "data", "fuel.vti")
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description="A turntable animation of fuel.vti, written to GIF and MP4.")
     ap.add_argument("--size", type=int, default=320)
     ap.add_argument("--frames", type=int, default=48)
     ap.add_argument("--fps", type=float, default=16)
     ap.add_argument("--out", nargs="+", default=[out_path("orbit.gif"), out_path("orbit.mp4")])
     args = ap.parse_args()
-    if os.path.exists(FUEL):
-        volume = pyvr.load(FUEL)
-    else:
-        d = create_sample_volume(128, "double_sphere")
-        volume = Volume(d, compute_normal_volume(d))
+    volume = pyvr.datasets.fuel()
     renderer = VolumeRenderer(args.size, args.size, config=RenderConfig.balanced(),
                               light=Light.camera_linked(azimuth_offset=0.5, elevation_offset=0.3, ambient=0.3))
     renderer.load_volume(volume)

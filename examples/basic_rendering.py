@@ -1,4 +1,8 @@
-"""pyvr's basic example: a 128^3 sphere without normals, balanced preset.
+"""
+Basic rendering
+===============
+
+pyvr's basic example: a 128^3 sphere without normals, balanced preset.
 
 Run: .venv/bin/python examples/basic_rendering.py  (writes out/basic_rendering.png)
 """

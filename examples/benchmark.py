@@ -1,4 +1,8 @@
-"""pyvr's preset benchmark: 256^3 double_sphere with normals, bounds [-1, 1]^3,
+"""
+The preset benchmark
+====================
+
+pyvr's preset benchmark: 256^3 double_sphere with normals, bounds [-1, 1]^3,
 512x512, isometric camera at distance 3, plasma + linear(0, 0.1).
 
 For each preset: a fresh renderer, one warm-up frame, then timed frames.

@@ -1,4 +1,8 @@
-"""pyvr's camera demo: six views of a double sphere (presets, orbit, path).
+"""
+Cameras
+=======
+
+pyvr's camera demo: six views of a double sphere (presets, orbit, path).
 
 Run: .venv/bin/python examples/camera_demo.py  (writes out/camera_demo.png)
 """

@@ -1,8 +1,11 @@
-"""Explore a volume in pyvr's matplotlib window: drag to rotate, scroll to
+"""
+The interactive window
+======================
+
+Explore a volume in pyvr's matplotlib window: drag to rotate, scroll to
 zoom, click the opacity curve to shape the transfer function.
 
-Opens ../shared/data/fuel.vti (a real 64^3 simulation) when present, else a
-synthetic 128^3 volume. Keys: r reset view, s save image, f frame rate,
+Opens fuel.vti (a real 64^3 simulation, shipped with pyvr) or the file given. Keys: r reset view, s save image, f frame rate,
 h histogram, l light follows camera, q auto-quality (cheap frames while
 dragging) on/off, t trackball/orbit, esc deselect, delete remove point;
 close the window (or ctrl+w) to quit.
@@ -13,42 +16,45 @@ an opacity edit are played on it, and the figure is saved.
 """
 
 import argparse
-import os
 
-import numpy as np
 
-FUEL = os.path.join(os.path.dirname(__file__), "..", "..", "shared", "data", "fuel.vti")
+
+
+KEYS = """Drag to rotate, scroll to zoom, click the opacity curve to edit it. Keys: r reset view, s save image,
+f frame rate, h histogram, l light follows camera, q auto-quality, t trackball/orbit, esc deselect,
+delete remove point; close the window (or ctrl+w) to quit."""
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("path", nargs="?", default=FUEL if os.path.exists(FUEL) else None)
+    ap = argparse.ArgumentParser(description="Explore a volume in pyvr's matplotlib window.")
+    ap.add_argument("path", nargs="?", help="a volume file for pyvr.load (default: fuel.vti)")
     ap.add_argument("--screenshot", help="save the window, made headless, to this PNG and exit")
     args = ap.parse_args()
-    if args.screenshot:
-        import matplotlib
+    import matplotlib
 
+    if args.screenshot:
         matplotlib.use("Agg")
+    else:
+        import matplotlib.pyplot  # noqa: F401  (resolves the automatic backend)
+
+        if matplotlib.get_backend().lower() in ("agg", "cairo", "pdf", "pgf", "ps", "svg", "template"):
+            # No display (an SSH session, a container): show() would return at once and nothing appear.
+            raise SystemExit(f"no window can open here (matplotlib's backend is {matplotlib.get_backend()!r}: "
+                             "no display). Run with --screenshot out/interface.png to save the window as a "
+                             "picture, use pyvr.notebook.VolumeView in Jupyter, or set DISPLAY.")
     import pyvr
     from pyvr import RenderConfig
     from pyvr.camera import Camera
-    from pyvr.datasets import compute_normal_volume, create_sample_volume
     from pyvr.interface import InteractiveVolumeRenderer
-    from pyvr.volume import Volume
 
-    if args.path:
-        volume = pyvr.load(args.path)
-    else:
-        d = create_sample_volume(128, "double_sphere")
-        volume = Volume(d, compute_normal_volume(d), min_bounds=np.array([-1.0, -1, -1]),
-                        max_bounds=np.array([1.0, 1, 1]))
+    volume = pyvr.load(args.path) if args.path else pyvr.datasets.fuel()
     camera = Camera.fit(volume, azimuth=0.6, elevation=0.4)
     camera.distance *= 0.6
     ui = InteractiveVolumeRenderer(volume, width=512, height=512, config=RenderConfig.balanced(), camera=camera)
     ui.state.control_points = [(0.0, 0.0), (0.03, 0.0), (0.15, 0.5), (1.0, 1.0)]
     ui.state.set_colormap("turbo")
     if not args.screenshot:
-        print(__doc__.split("\n\n")[1])
+        print(KEYS)
         ui.show()
         return
     from matplotlib.backend_bases import MouseEvent

@@ -1,9 +1,13 @@
-"""Real data in one line each: a volume file loaded with pyvr.load, its
+"""
+Loading real data
+=================
+
+Real data in one line each: a volume file loaded with pyvr.load, its
 transfer function defined in the data's own units, framed by the default
 camera, cropped, and composited over a background.
 
-Renders ../shared/data/fuel.vti (a real 64^3 simulation of fuel injection,
-values 0..255) when present, and a CT-like phantom written to a .raw file
+Renders fuel.vti (a real 64^3 simulation of fuel injection, values 0..255,
+shipped with pyvr: ``pyvr.datasets.fuel()``) and a CT-like phantom written to a .raw file
 in Hounsfield units with two CT windows. Writes out/loading_data.png.
 
 Run: .venv/bin/python examples/loading_data.py
@@ -23,7 +27,6 @@ from pyvr.datasets import shepp_logan_3d
 from pyvr.transferfunctions import CT_WINDOWS, ColorTransferFunction, OpacityTransferFunction, window_level
 
 SIZE = 320
-FUEL = os.path.join(os.path.dirname(__file__), "..", "..", "shared", "data", "fuel.vti")
 
 
 def frame(volume, ctf, otf, value_range=None, crop=None, camera=None):
@@ -39,17 +42,16 @@ def frame(volume, ctf, otf, value_range=None, crop=None, camera=None):
 
 def main():
     images, labels = [], []
-    if os.path.exists(FUEL):
-        fuel = pyvr.load(FUEL)  # unit box, value_range = data range (0..255)
-        print(fuel, "value_range", fuel.value_range, "spacing", fuel.metadata["spacing"])
-        otf = OpacityTransferFunction([(0.0, 0.0), (0.05, 0.0), (0.3, 0.15), (1.0, 0.6)])
-        cam = Camera.fit(fuel, azimuth=0.6, elevation=0.35)
-        cam.distance *= 0.5  # the plume fills the middle of its box
-        images.append(frame(fuel, ColorTransferFunction.from_colormap("inferno"), otf, camera=cam))
-        labels.append("fuel.vti, TF over its data range")
-        images.append(frame(fuel, ColorTransferFunction.from_colormap("inferno"), otf, camera=cam,
-                            crop=((-1, -1, -1), (1, 0.0, 1))))
-        labels.append("cropped at y = 0")
+    fuel = pyvr.datasets.fuel()  # unit box, value_range = data range (0..255)
+    print(fuel, "value_range", fuel.value_range, "spacing", fuel.metadata["spacing"])
+    otf = OpacityTransferFunction([(0.0, 0.0), (0.05, 0.0), (0.3, 0.15), (1.0, 0.6)])
+    cam = Camera.fit(fuel, azimuth=0.6, elevation=0.35)
+    cam.distance *= 0.5  # the plume fills the middle of its box
+    images.append(frame(fuel, ColorTransferFunction.from_colormap("inferno"), otf, camera=cam))
+    labels.append("fuel.vti, TF over its data range")
+    images.append(frame(fuel, ColorTransferFunction.from_colormap("inferno"), otf, camera=cam,
+                        crop=((-1, -1, -1), (1, 0.0, 1))))
+    labels.append("cropped at y = 0")
     # A CT-like head phantom in Hounsfield units, anisotropic voxels, in a .raw file.
     # Phantom levels 0 (air), 0.2 (brain), 0.3 (lesions), 1 (skull) as HU.
     hu = np.interp(shepp_logan_3d(128), [0, 0.2, 0.3, 1], [-1000, 30, 70, 1000]).astype(np.int16)

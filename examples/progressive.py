@@ -1,4 +1,8 @@
-"""Progressive refinement: the running mean of unbiased frames converges to
+"""
+Progressive refinement
+======================
+
+Progressive refinement: the running mean of unbiased frames converges to
 the exact integral, where one midpoint frame at the same step bands.
 
 A torus with three narrow opacity peaks at the fast preset's step (0.02),

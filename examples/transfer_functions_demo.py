@@ -1,4 +1,8 @@
-"""pyvr's transfer-function demo: a torus under four colour/opacity pairs.
+"""
+Transfer functions
+==================
+
+pyvr's transfer-function demo: a torus under four colour/opacity pairs.
 
 Run: .venv/bin/python examples/transfer_functions_demo.py  (writes out/transfer_functions_demo.png)
 """

@@ -4,7 +4,8 @@
 # reference) against the wheel installed in .venv, as users install it:
 # once with this machine's Vulkan driver, every frame on the shader engine,
 # and once with no Vulkan driver visible, where the native CPU engine
-# renders every frame. Then the native march's portable path, and lint.
+# renders every frame. Then the native march's portable path, lint, and
+# the documentation site.
 # Runs scripts/setup.sh first, which installs what is missing and rebuilds
 # the wheel if its sources changed.
 set -euo pipefail
@@ -40,3 +41,5 @@ echo "== pytest, the native march's portable path (PYVR_NATIVE_LANES=portable)"
 PYVR_NATIVE_LANES=portable .venv/bin/python -m pytest tests/test_native_march.py tests/test_bricks.py -q
 # Style: rustfmt, clippy (warnings as errors) and ruff.
 bash scripts/lint.sh
+# The documentation site, warnings as errors (its gallery runs every example).
+PYVR_SETUP_DONE=1 bash scripts/docs.sh
