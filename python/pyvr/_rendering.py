@@ -7,6 +7,8 @@ from typing import Iterator, Optional
 
 import numpy as np
 
+from ._extras import require
+
 from . import _core
 from ._frames import (
     LONG_FLOAT64_SAMPLES,
@@ -323,8 +325,9 @@ class FrameRendering:
         return buf.getvalue()
 
     def render_to_pil(self, data=None):
-        """The frame as a PIL RGBA image, top row at the top."""
-        from PIL import Image
+        """The frame as a PIL RGBA image, top row at the top (needs Pillow:
+        ``pip install 'pyvr-rs[plot]'``)."""
+        Image = require("PIL.Image", "plot", "render_to_pil")
 
         if data is None:
             data = self.render()
