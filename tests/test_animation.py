@@ -243,7 +243,8 @@ def test_repr_png_is_the_current_frame(renderer):
     png = renderer._repr_png_()
     img = np.array(Image.open(io.BytesIO(png)))
     assert img.shape == (H, W, 4)
-    assert np.array_equal(img, renderer.render(origin="upper"))
+    # Over white, as the notebook view shows it (tests/test_notebook.py).
+    assert np.array_equal(img, renderer.render(origin="upper", background="white"))
     assert VolumeRenderer(8, 8)._repr_png_() is None  # nothing loaded: text repr
 
 

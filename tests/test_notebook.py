@@ -144,14 +144,14 @@ def test_view_refines_while_it_stands_still(renderer):
                                     OpacityTransferFunction.peaks([0.3, 0.6], opacity=0.5, eps=0.03))
     view = VolumeView(renderer, refine_frames=6)
     first = view.draw()
-    assert np.array_equal(first, renderer.render(origin="upper"))
+    assert np.array_equal(first, renderer.render(origin="upper", background="white"))
     shown = [view.draw() for _ in range(6)]
     # Refinement frames 1-3 keep the full frame on show; from 4 on, the
     # running mean, which is render(accumulate=k); after 6 nothing more is
     # rendered.
     assert all(np.array_equal(img, first) for img in shown[:3])
     for k, img in zip(range(4, 7), shown[3:]):
-        assert np.array_equal(img, renderer.render(origin="upper", accumulate=k)), k
+        assert np.array_equal(img, renderer.render(origin="upper", background="white", accumulate=k)), k
     assert not np.array_equal(shown[-1], first)
     frames_before = renderer.counters()["frames"]
     assert np.array_equal(view.draw(), shown[-1]) and view.refinement.count == 6
@@ -160,7 +160,7 @@ def test_view_refines_while_it_stands_still(renderer):
     renderer.set_transfer_functions(ColorTransferFunction.from_colormap("viridis"),
                                     OpacityTransferFunction.peaks([0.5], opacity=0.5, eps=0.03))
     again = view.draw()
-    assert view.refinement.count == 0 and np.array_equal(again, renderer.render(origin="upper"))
+    assert view.refinement.count == 0 and np.array_equal(again, renderer.render(origin="upper", background="white"))
     # So does a drag.
     for _ in range(4):
         view.draw()
@@ -173,3 +173,31 @@ def test_view_refines_while_it_stands_still(renderer):
     assert view.refinement.count == 0
     with pytest.raises(ValueError, match="refine_frames"):
         VolumeView(renderer, refine_frames=-1)
+
+
+def test_the_view_and_the_still_show_the_same_visible_picture():
+    # The notebook's first picture with the defaults (no transfer functions
+    # set, no camera): the live view's frames lose their alpha on the way to
+    # the browser, so both are composited over one background. Over black the
+    # default grey ramp is near invisible (the spheres' pixels 6 levels from
+    # the page on average, here); over white they are 106 levels from it.
+    from PIL import Image
+
+    r = VolumeRenderer(96, 80)
+    r.load_volume(Volume(create_sample_volume(32, "double_sphere")))
+    view = VolumeView(r)
+    live = view.draw()
+    still = np.array(Image.open(io.BytesIO(r._repr_png_())))
+    assert np.array_equal(live, still)
+    assert (live[..., 3] == 255).all()
+    covered = r.render(origin="upper")[..., 3] > 0
+    contrast = np.abs(live[..., :3].astype(int) - 255).mean(axis=-1)[covered].mean()
+    over_black = r.render(origin="upper", background="black")[..., :3].astype(int).mean(axis=-1)[covered].mean()
+    assert contrast > 80 and over_black < 10, (contrast, over_black)
+    # Colours by name or RGB; no background at all is refused, naming why.
+    assert VolumeView(r, background=(0, 0, 0)).draw()[..., :3].max() < 255
+    for bad in (None, "none"):
+        with pytest.raises(ValueError, match="without alpha"):
+            VolumeView(r, background=bad)
+    with pytest.raises(ValueError, match="not a colour name"):
+        VolumeView(r, background="no-such-colour")

@@ -10,6 +10,13 @@ from . import _core
 from .config import RenderConfig
 
 
+# What notebooks show frames over, the still (``_repr_png_``) and the live
+# view alike: jupyter_rfb sends frames to the browser without alpha, so a
+# transparent background would be black there and the page's colour in the
+# still.
+NOTEBOOK_BACKGROUND = "white"
+
+
 def output_format(dt: np.dtype, premultiplied: bool, bg, origin: str) -> tuple:
     """``render``'s output options as the engine's (codes, straight,
     background, top_down)."""

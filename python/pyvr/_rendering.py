@@ -13,6 +13,7 @@ from . import _core
 from ._frames import (
     LONG_FLOAT64_SAMPLES,
     LONG_FRAME_SAMPLES,
+    NOTEBOOK_BACKGROUND,
     UNBIASED_MODELS,
     _colour,
     _frame_samples,
@@ -310,8 +311,9 @@ class FrameRendering:
             self.light.position, self.light.target, self._light_args = saved[2], saved[3], saved[4]
 
     def _repr_png_(self) -> Optional[bytes]:
-        """Jupyter shows a renderer as its current frame (PNG, top row first);
-        None (text repr) until a volume is loaded."""
+        """Jupyter shows a renderer as its current frame (PNG, top row first)
+        over white, as the notebook view shows it; None (text repr) until a
+        volume is loaded."""
         if self.volume is None:
             return None
         try:
@@ -321,7 +323,7 @@ class FrameRendering:
         import io
 
         buf = io.BytesIO()
-        Image.fromarray(self.render(origin="upper"), "RGBA").save(buf, format="PNG")
+        Image.fromarray(self.render(origin="upper", background=NOTEBOOK_BACKGROUND), "RGBA").save(buf, format="PNG")
         return buf.getvalue()
 
     def render_to_pil(self, data=None):

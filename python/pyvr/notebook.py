@@ -3,7 +3,9 @@
 >>> from pyvr.notebook import VolumeView
 >>> VolumeView(renderer)          # last expression of a cell: shows the view
 
-Drag with the left button to rotate (trackball), scroll to zoom. While the
+Drag with the left button to rotate (trackball), scroll to zoom: the wheel
+zooms once the view has the keyboard focus (click it first); until then
+the browser scrolls the page, as it does over any picture. While the
 mouse drags or the wheel turns, frames are rendered cheaper (see
 ``pyvr.interaction.DragQuality``) and full quality returns on release, or
 0.5 s after the last scroll. The view is a ``jupyter_rfb.RemoteFrameBuffer``
@@ -17,6 +19,9 @@ converges to the exact integral (the same image as
 change of the scene starts over. Off by default: it keeps the machine busy
 for n more frames after every interaction, and on smooth scenes the first
 means are noisier than the midpoint frame they replace (docs/rendering.md).
+
+Frames are shown over ``background`` (white by default, as the renderer's
+still image): jupyter_rfb sends frames to the browser without their alpha.
 
 Without a live notebook frontend (nbconvert, a script) nothing is drawn by
 itself; ``view.draw()`` renders a frame now and ``view.snapshot()`` shows it.
@@ -35,6 +40,7 @@ require("jupyter_rfb", "notebook", "pyvr.notebook")
 
 from jupyter_rfb import RemoteFrameBuffer  # noqa: E402
 
+from ._frames import NOTEBOOK_BACKGROUND, _colour  # noqa: E402
 from .camera import Camera, CameraController  # noqa: E402
 from .interaction import DragQuality  # noqa: E402
 from .refinement import Refinement  # noqa: E402
@@ -48,6 +54,8 @@ class VolumeView(RemoteFrameBuffer):
     with the mouse. The renderer's volume, transfer functions, config and
     light are used as they are; the view keeps its own camera
     (``view.camera``), starting from the renderer's (or a framing one).
+    ``background``: the colour frames are composited over (a name or RGB in
+    [0, 1]), the same as the renderer's still image by default.
     """
 
     # Set once jupyter_rfb's __init__ has run (`close`).
@@ -64,9 +72,12 @@ class VolumeView(RemoteFrameBuffer):
         return super().__new__(cls)
 
     def __init__(self, renderer: VolumeRenderer, camera: Optional[Camera] = None, *, target_fps: float = 10.0,
-                 refine_frames: int = 0, **kwargs):
+                 refine_frames: int = 0, background=NOTEBOOK_BACKGROUND, **kwargs):
         # Checked before the widget opens its channel to the notebook.
-        refinement = Refinement(renderer, refine_frames)
+        if background is None or _colour(background) is None:
+            raise ValueError(f"background={background!r}: the view's frames reach the browser without alpha; "
+                             "give a colour (a name or (r, g, b) in [0, 1])")
+        refinement = Refinement(renderer, refine_frames, background=background)
         drag_quality = DragQuality(renderer, target_fps=target_fps)
         kwargs.setdefault("css_width", f"{renderer.width}px")
         kwargs.setdefault("css_height", f"{renderer.height}px")
@@ -87,6 +98,7 @@ class VolumeView(RemoteFrameBuffer):
         self.drag_latencies: deque = deque(maxlen=200)
         self.release_latencies: deque = deque(maxlen=200)
         self.refinement = refinement
+        self.background = background
         self._last_frame: Optional[np.ndarray] = None
 
     def close(self, *args, **kwargs) -> None:
@@ -173,7 +185,7 @@ class VolumeView(RemoteFrameBuffer):
         cheap = self._interacting
         if cheap:
             self.refinement.stop()
-            img = self.drag_quality.render_drag(origin="upper")
+            img = self.drag_quality.render_drag(origin="upper", background=self.background)
         elif self.refinement.pending:
             img = self.refinement.step()
             if self.refinement.pending:
@@ -182,7 +194,7 @@ class VolumeView(RemoteFrameBuffer):
         elif self.refinement.finished:
             return None  # refined as far as asked: nothing new to show
         else:
-            img = self.drag_quality.render_full(origin="upper")
+            img = self.drag_quality.render_full(origin="upper", background=self.background)
             self.refinement.restart()
             if self.refinement.pending:
                 self.request_draw()

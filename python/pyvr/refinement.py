@@ -14,7 +14,7 @@ from typing import Optional
 import numpy as np
 
 from ._numbers import check_count
-from ._frames import UNBIASED_MODELS, mean_image, output_image
+from ._frames import UNBIASED_MODELS, _colour, mean_image, output_image
 
 # The running mean is shown from this many frames on: four unbiased frames
 # have half the noise of one (the full frame stays on show until then).
@@ -23,11 +23,13 @@ SHOW_FROM = 4
 
 class Refinement:
     """The running mean of up to ``frames`` unbiased frames of ``renderer``'s
-    current scene (0: off)."""
+    current scene (0: off), composited over ``background`` (as in
+    ``render``; None keeps it transparent)."""
 
-    def __init__(self, renderer, frames: int = 0):
+    def __init__(self, renderer, frames: int = 0, background=None):
         self.renderer = renderer
         self.frames = check_count("refine_frames", frames, low=0, high=1 << 16)
+        self.background = None if background is None else _colour(background)
         self.count = 0
         self._sum: Optional[np.ndarray] = None
         self._key: Optional[bytes] = None
@@ -81,4 +83,4 @@ class Refinement:
         self.count += 1
         if self.count < min(SHOW_FROM, self.frames):
             return None
-        return output_image(mean_image(self._sum, self.count), np.dtype(np.uint8), False, None, "upper")
+        return output_image(mean_image(self._sum, self.count), np.dtype(np.uint8), False, self.background, "upper")
