@@ -3,7 +3,8 @@
 # machine that has Rust (cargo) and Python 3.11+: a software Vulkan driver
 # when no GPU driver is present, Mesa's EGL (for the OpenGL reference
 # renderer in the tests), Xvfb (a virtual display for the interface's window
-# test), the wheel (scripts/wheel.sh), and a virtual environment in .venv
+# test), Chromium (the notebook view's browser test), the wheel
+# (scripts/wheel.sh), and a virtual environment in .venv
 # with that wheel installed as a user installs it.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -17,8 +18,9 @@ for f in /usr/share/vulkan/icd.d/*.json /etc/vulkan/icd.d/*.json; do
     [ -e "$f" ] && have_icd=true
 done
 $have_icd || need+=(mesa-vulkan-drivers)
-# xvfb and xauth: the interface test opens a real (Tk) window on a virtual display.
-for pkg in libvulkan1 libegl1 libegl-mesa0 libgl1-mesa-dri xvfb xauth; do
+# xvfb and xauth: the interface test opens a real (Tk) window on a virtual display;
+# chromium and its driver: the notebook view's test drives JupyterLab in a headless browser.
+for pkg in libvulkan1 libegl1 libegl-mesa0 libgl1-mesa-dri xvfb xauth chromium chromium-driver; do
     dpkg -s "$pkg" >/dev/null 2>&1 || need+=("$pkg")
 done
 if [ ${#need[@]} -gt 0 ]; then
