@@ -115,6 +115,8 @@ def _exact(config: RenderConfig, step: float, longest: float) -> RenderConfig:
 
 
 def longest_chord(renderer) -> float:
+    """The diagonal of the renderer's volume box: the longest path a ray can take
+    through it."""
     lo, hi = (np.asarray(b, np.float64) for b in renderer.bounds)
     return float(np.linalg.norm(hi - lo))
 

@@ -193,11 +193,14 @@ class BrickedVolume:
         self.resident = False
 
     def texel_bytes(self) -> int:
+        """Bytes one voxel takes on the device at this volume's precision, normals
+        included."""
         from ._storage import device_texel_bytes
 
         return device_texel_bytes(self.data, self.normals is not None, self.precision)[1]
 
     def device_bytes(self) -> int:
+        """Bytes all bricks (the voxel ranges they hold) take on the device."""
         return sum(int(np.prod([hi - lo for lo, hi in r])) for r in self.ranges) * self.texel_bytes()
 
     def layout(self, engine) -> None:

@@ -75,6 +75,8 @@ class DragQuality:
 
     @property
     def scale(self) -> float:
+        """The fraction of the view's width and height that frames take while dragging,
+        at the current level."""
         return SCALES[self.level]
 
     def start(self) -> None:
@@ -120,6 +122,7 @@ class DragQuality:
                 self.level -= 1
 
     def describe(self) -> str:
+        """The current drag frame as text: its size, its share of the view, its step."""
         cfg = self.config()
         w, h = self.size()
         return f"{w}x{h} ({self.scale:.3g} of the view), step {cfg.step_size:.3g}"

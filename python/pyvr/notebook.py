@@ -102,6 +102,7 @@ class VolumeView(RemoteFrameBuffer):
         self._last_frame: Optional[np.ndarray] = None
 
     def close(self, *args, **kwargs) -> None:
+        """Close the widget (also one whose construction failed part-way)."""
         if self._built:
             super().close(*args, **kwargs)
         else:
@@ -118,6 +119,8 @@ class VolumeView(RemoteFrameBuffer):
 
     # -- events ------------------------------------------------------------
     def handle_event(self, event: dict) -> None:
+        """jupyter_rfb's event callback: pointer drags turn the camera, the wheel
+        zooms, resizes rescale the drag."""
         kind = event.get("type", event.get("event_type"))
         if kind == "pointer_down" and event.get("button", 1) == 1:
             self._event_time = time.perf_counter()

@@ -154,6 +154,8 @@ class VolumeRenderer(VolumeLoading, FrameRendering):
             self._light_args = _light_tuple(self.light)
 
     def set_light(self, light: Light) -> None:
+        """Use ``light`` from the next frame; a camera-linked light is placed from the
+        current camera at once."""
         if not isinstance(light, Light):
             raise TypeError(f"Expected Light instance, got {type(light)}")
         light.validate()
@@ -249,6 +251,8 @@ class VolumeRenderer(VolumeLoading, FrameRendering):
         return self._crop
 
     def set_config(self, config: RenderConfig) -> None:
+        """Use ``config`` (a :class:`~pyvr.config.RenderConfig`) from the next frame;
+        uploads no volume data."""
         if not isinstance(config, RenderConfig):
             raise TypeError(f"Expected RenderConfig instance, got {type(config)}")
         config.validate()
@@ -256,15 +260,19 @@ class VolumeRenderer(VolumeLoading, FrameRendering):
         self.config = config
 
     def get_config(self) -> RenderConfig:
+        """The render config in use."""
         return self.config
 
     def get_light(self) -> Light:
+        """The light in use."""
         return self.light
 
     def get_volume(self) -> Optional[Volume]:
+        """The loaded volume, or None."""
         return self.volume
 
     def get_camera(self) -> Optional[Camera]:
+        """The camera set, or None (then frames use :meth:`Camera.fit` of the volume)."""
         return self.camera
 
     @property

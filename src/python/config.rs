@@ -31,6 +31,13 @@ const FIELDS: [&str; 17] = [
     "order",
 ];
 
+/// How frames are marched: pyvr 0.4.1's fields (`step_size`, `max_steps`,
+/// `early_ray_termination`, `opacity_threshold`, `reference_step_size`,
+/// `opacity_correction`) and its presets, plus the optical model (`model`,
+/// `iso_value`, `anisotropy`, `shadow_step_size`), the marching `order`,
+/// `jitter`/`jitter_seed`, `pre_integrated`, `refine`, `unbiased` and
+/// `exact_filtering`. Fields are checked when set (ValueError/TypeError
+/// naming the field); `replace(**fields)` gives a changed copy.
 #[pyclass(name = "RenderConfig", module = "pyvr.config", subclass)]
 #[derive(Clone)]
 pub struct PyRenderConfig {
@@ -231,26 +238,32 @@ render_config_methods! {
         checked(py, &self.inner)
     }
 
+    /// Fastest: step 0.05, at most 50 steps, early termination at 0.80 opacity.
     #[classmethod]
     fn preview(cls: &Bound<'_, PyType>) -> PyResult<Py<PyAny>> {
         preset(cls, Preset::Preview)
     }
+    /// Step 0.02, at most 100 steps, early termination at 0.90 opacity.
     #[classmethod]
     fn fast(cls: &Bound<'_, PyType>) -> PyResult<Py<PyAny>> {
         preset(cls, Preset::Fast)
     }
+    /// The default: step 0.01, at most 500 steps, early termination at 0.95 opacity.
     #[classmethod]
     fn balanced(cls: &Bound<'_, PyType>) -> PyResult<Py<PyAny>> {
         preset(cls, Preset::Balanced)
     }
+    /// Step 0.005, at most 1000 steps, early termination at 0.98 opacity.
     #[classmethod]
     fn high_quality(cls: &Bound<'_, PyType>) -> PyResult<Py<PyAny>> {
         preset(cls, Preset::HighQuality)
     }
+    /// Step 0.001, at most 2000 steps, no early termination.
     #[classmethod]
     fn ultra_quality(cls: &Bound<'_, PyType>) -> PyResult<Py<PyAny>> {
         preset(cls, Preset::UltraQuality)
     }
+    /// A config from pyvr's four fields (the other fields at their defaults).
     #[classmethod]
     // None (also accepted) means the same defaults; the text signature shows
     // them as pyvr 0.4.1 did.
@@ -313,6 +326,7 @@ render_config_methods! {
         Ok(())
     }
 
+    /// A copy with `step_size` changed (checked as when set).
     fn with_step_size(&self, py: Python<'_>, step_size: &Bound<'_, PyAny>) -> PyResult<PyRenderConfig> {
         let mut c = self.clone();
         c.inner.step_size = real("step_size", step_size)?;
@@ -320,6 +334,7 @@ render_config_methods! {
         Ok(c)
     }
 
+    /// A copy with `max_steps` changed (checked as when set).
     fn with_max_steps(&self, py: Python<'_>, max_steps: &Bound<'_, PyAny>) -> PyResult<PyRenderConfig> {
         let mut c = self.clone();
         c.inner.max_steps = i64::from_arg("max_steps", max_steps)?;
@@ -327,10 +342,12 @@ render_config_methods! {
         Ok(c)
     }
 
+    /// Samples a ray takes across the unit cube's diagonal, as pyvr estimates it: int(1.732 / step_size), at most max_steps.
     fn estimate_samples_per_ray(&self) -> i64 {
         self.inner.estimate_samples_per_ray()
     }
 
+    /// Samples per ray relative to the balanced preset's: a rough cost estimate.
     fn estimate_render_time_relative(&self) -> f64 {
         self.inner.estimate_render_time_relative()
     }

@@ -16,6 +16,8 @@ class CameraError(ValueError):
 
 
 def validate_camera_angles(azimuth, elevation, roll) -> None:
+    """Raise :class:`CameraError` unless ``azimuth``, ``elevation`` and ``roll``
+    are finite numbers."""
     for name, v in (("azimuth", azimuth), ("elevation", elevation), ("roll", roll)):
         if not is_number(v):
             raise CameraError(f"{name} must be numeric, got {type(v)}")
@@ -24,10 +26,13 @@ def validate_camera_angles(azimuth, elevation, roll) -> None:
 
 
 def degrees_to_radians(**kwargs) -> Dict[str, float]:
+    """Each keyword's value converted from degrees to radians, as a dict:
+    ``degrees_to_radians(azimuth=45)``."""
     return {k: np.radians(v) for k, v in kwargs.items()}
 
 
 def radians_to_degrees(**kwargs) -> Dict[str, float]:
+    """Each keyword's value converted from radians to degrees, as a dict."""
     return {k: np.degrees(v) for k, v in kwargs.items()}
 
 
@@ -59,6 +64,9 @@ class Camera:
         self.validate()
 
     def validate(self) -> None:
+        """Check the fields (target, init_pos and init_up 3-vectors; angles
+        numeric; distance positive, ...); raises ValueError naming the field,
+        and warns for angles past 4*pi."""
         if not is_vec3(self.target):
             raise ValueError("target must be a 3D numpy array")
         for name in ("azimuth", "elevation", "roll"):
@@ -89,22 +97,32 @@ class Camera:
 
     @classmethod
     def from_spherical(cls, target, azimuth, elevation, roll, distance, **kwargs) -> "Camera":
+        """A camera looking at ``target`` from ``azimuth``, ``elevation`` (radians) and
+        ``distance``, turned by ``roll`` about its view direction; other fields as
+        keywords."""
         return cls(target=target, azimuth=azimuth, elevation=elevation, roll=roll, distance=distance, **kwargs)
 
     @classmethod
     def front_view(cls, target=None, distance: float = 3.0) -> "Camera":
+        """Looking along -z at ``target`` (default the origin) from ``distance``:
+        azimuth 0, elevation 0."""
         return cls(target=_f32([0, 0, 0]) if target is None else target, distance=distance)
 
     @classmethod
     def side_view(cls, target=None, distance: float = 3.0) -> "Camera":
+        """Looking at ``target`` from the side: azimuth pi/2, elevation 0, at
+        ``distance``."""
         return cls(target=_f32([0, 0, 0]) if target is None else target, azimuth=np.pi / 2, distance=distance)
 
     @classmethod
     def top_view(cls, target=None, distance: float = 3.0) -> "Camera":
+        """Looking down at ``target``: elevation pi/2, at ``distance``."""
         return cls(target=_f32([0, 0, 0]) if target is None else target, elevation=np.pi / 2, distance=distance)
 
     @classmethod
     def isometric_view(cls, target=None, distance: float = 3.0) -> "Camera":
+        """A three-quarter view of ``target``: azimuth pi/4, elevation pi/6, at
+        ``distance``."""
         return cls(
             target=_f32([0, 0, 0]) if target is None else target,
             azimuth=np.pi / 4,
@@ -152,6 +170,8 @@ class Camera:
         )
 
     def to_dict(self) -> dict:
+        """The camera as a JSON-ready dict (target as a list; angles, distance, fov and
+        planes as floats)."""
         return {
             "target": np.asarray(self.target).tolist(),
             "azimuth": float(self.azimuth),
@@ -167,6 +187,7 @@ class Camera:
 
     @classmethod
     def from_dict(cls, data: dict) -> "Camera":
+        """The camera a :meth:`to_dict` dict describes."""
         return cls(
             target=_f32(data["target"]),
             azimuth=data["azimuth"],
@@ -181,15 +202,18 @@ class Camera:
         )
 
     def save_to_file(self, filepath) -> None:
+        """Write :meth:`to_dict` as JSON to ``filepath``."""
         with open(filepath, "w") as f:
             json.dump(self.to_dict(), f, indent=2)
 
     @classmethod
     def load_from_file(cls, filepath) -> "Camera":
+        """The camera saved by :meth:`save_to_file` in ``filepath``."""
         with open(filepath) as f:
             return cls.from_dict(json.load(f))
 
     def copy(self) -> "Camera":
+        """An independent copy (the target array is not shared)."""
         return Camera.from_dict(self.to_dict())
 
     def get_camera_vectors(self) -> Tuple[np.ndarray, np.ndarray]:
@@ -219,6 +243,8 @@ class Camera:
         return m.astype(np.float32)
 
     def get_projection_matrix(self, aspect_ratio: float) -> np.ndarray:
+        """The 4x4 OpenGL-style perspective matrix for ``aspect_ratio`` (width /
+        height), from ``fov`` and the near and far planes."""
         f = 1.0 / np.tan(self.fov / 2.0)
         n, fa = self.near_plane, self.far_plane
         return np.array(
@@ -298,6 +324,8 @@ def get_camera_pos(target, azimuth, elevation, roll, distance, init_pos=None, in
 
 
 def get_camera_pos_from_params(params: Camera):
+    """``(position, up)`` of a :class:`Camera`: :func:`get_camera_pos` of its
+    target, angles and distance."""
     return get_camera_pos(
         params.target,
         params.azimuth,

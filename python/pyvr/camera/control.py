@@ -94,6 +94,7 @@ class CameraPath:
         self.validate_keyframes()
 
     def validate_keyframes(self) -> None:
+        """Raise ValueError unless every keyframe is a valid :class:`Camera`."""
         for i, k in enumerate(self.keyframes):
             if not isinstance(k, Camera):
                 raise ValueError(f"Keyframe {i} must be a Camera instance")
@@ -142,6 +143,9 @@ class CameraPath:
             yield self.interpolate(i / d)
 
     def interpolate(self, t: float) -> Camera:
+        """The camera at ``t`` in [0, 1] along the path: keyframes evenly spaced in
+        ``t``, each field interpolated linearly between its neighbours, angles as
+        given (0 to 2*pi is a full turn)."""
         if not (0.0 <= t <= 1.0):
             raise ValueError("t must be between 0.0 and 1.0")
         if t == 0.0:
@@ -167,6 +171,8 @@ class CameraPath:
         )
 
     def generate_frames(self, n_frames: int) -> List[Camera]:
+        """``n_frames`` cameras evenly spaced along the path, both ends included
+        (:meth:`cameras`)."""
         if is_number(n_frames) and not isinstance(n_frames, bool) and n_frames < 1:
             raise ValueError("n_frames must be at least 1")  # pyvr 0.4.1's message
         return self.cameras(n_frames)
@@ -181,15 +187,23 @@ class CameraController:
         self.params = initial_params.copy()
 
     def orbit(self, delta_azimuth: float, delta_elevation: float) -> None:
+        """Turn about the target: add ``delta_azimuth`` and ``delta_elevation``
+        (radians; elevation kept within +-pi/2)."""
         self.params.azimuth += delta_azimuth
         self.params.elevation = np.clip(self.params.elevation + delta_elevation, -np.pi / 2, np.pi / 2)
 
     def zoom(self, factor: float) -> None:
+        """Multiply the distance by ``factor`` (> 0; below 1 comes closer), kept within
+        [0.01, 1000]."""
         if factor <= 0:
             raise ValueError("Zoom factor must be positive")
         self.params.distance = np.clip(self.params.distance * factor, 0.01, 1000.0)
 
     def trackball(self, dx, dy, viewport_width, viewport_height, sensitivity: float = 1.0) -> None:
+        """Rotate as if dragging a ball under the mouse: a drag of (``dx``, ``dy``)
+        pixels, over the viewport's smaller side and times ``sensitivity``, is
+        mapped onto a virtual ball, and the view turns by the arc from its
+        centre to that point, about the axis perpendicular to the drag."""
         if viewport_width <= 0 or viewport_height <= 0:
             raise ValueError(
                 f"Viewport dimensions must be positive, got width={viewport_width}, height={viewport_height}"
@@ -214,24 +228,31 @@ class CameraController:
         p.azimuth, p.elevation, p.roll = az, el, roll
 
     def pan(self, delta_target) -> None:
+        """Move the target (and so the camera) by ``delta_target``, a 3-vector in world
+        units."""
         if not is_vec3(delta_target):
             raise ValueError("delta_target must be a 3D numpy array")
         self.params.target += delta_target
 
     def roll_camera(self, delta_roll: float) -> None:
+        """Turn the camera about its view direction by ``delta_roll`` radians."""
         self.params.roll += delta_roll
 
     def set_distance(self, distance: float) -> None:
+        """Set the distance from the target (> 0)."""
         if distance <= 0:
             raise ValueError("Distance must be positive")
         self.params.distance = distance
 
     def look_at(self, target) -> None:
+        """Look at ``target`` (a 3-vector), keeping angles and distance."""
         if not is_vec3(target):
             raise ValueError("target must be a 3D numpy array")
         self.params.target = target.astype(np.float32)
 
     def reset_to_preset(self, preset: str, distance: Optional[float] = None) -> None:
+        """Replace the camera by a preset view, ``'front'``, ``'side'``, ``'top'`` or
+        ``'isometric'``, keeping the target and (unless given) the distance."""
         presets = {
             "front": Camera.front_view,
             "side": Camera.side_view,
@@ -244,7 +265,10 @@ class CameraController:
         self.params = presets[preset](target=np.array(self.params.target, copy=True), distance=d)
 
     def get_position_and_up(self):
+        """``(position, up)`` of the current camera, as float32 3-vectors."""
         return get_camera_pos_from_params(self.params)
 
     def animate_to(self, target_params: Camera, n_frames: int = 30) -> List[Camera]:
+        """``n_frames`` cameras from the current one to ``target_params`` (a
+        :class:`CameraPath` of the two)."""
         return CameraPath([self.params.copy(), target_params.copy()]).generate_frames(n_frames)

@@ -56,6 +56,7 @@ class InterfaceState:
         return self.control_points.index(point)
 
     def remove_control_point(self, index: int) -> None:
+        """Remove the opacity control point at ``index`` (not the first or last)."""
         n = len(self.control_points)
         if index in (0, n - 1, -1, -n):
             raise ValueError("Cannot remove first or last control point")
@@ -95,16 +96,20 @@ class InterfaceState:
         self.needs_render = True
 
     def select_control_point(self, index: Optional[int]) -> None:
+        """Select the control point at ``index`` (None: none)."""
         if index is not None and not 0 <= index < len(self.control_points):
             raise IndexError(f"Control point index {index} out of range for {len(self.control_points)} points")
         self.selected_control_point = index
 
     def set_colormap(self, colormap_name: str) -> None:
+        """Use the matplotlib colormap ``colormap_name``; the transfer functions and
+        the frame update."""
         self.current_colormap = colormap_name
         self.needs_tf_update = True
         self.needs_render = True
 
     def set_preset(self, preset_name: str) -> None:
+        """Use the RenderConfig preset ``preset_name`` (one of :data:`PRESETS`)."""
         if preset_name not in PRESETS:
             raise ValueError(f"Invalid preset '{preset_name}'. Choose from: {PRESETS}")
         self.current_preset_name = preset_name

@@ -95,6 +95,7 @@ class ImageDisplay:
             self.fps_text.set_text(text)
 
     def set_fps_visible(self, visible: bool) -> None:
+        """Show or hide the frame-rate overlay (hiding resets its counter)."""
         self.show_fps = bool(visible)
         if self.fps_text is not None:
             self.fps_text.set_visible(self.show_fps)
@@ -106,6 +107,7 @@ class ImageDisplay:
         return [a for a in (self.image, self.fps_text) if a is not None]
 
     def clear(self) -> None:
+        """Remove the image and the overlay from the axes."""
         if self.image is not None:
             self.image.remove()
             self.image = None
@@ -199,6 +201,7 @@ class OpacityEditor:
         return [a for a in (self.line, self.points) if a is not None]
 
     def set_histogram_visible(self, visible: bool) -> None:
+        """Show or hide the data's histogram behind the opacity curve."""
         self.show_histogram = bool(visible)
         if self.histogram_bars is None and self.show_histogram and self._histogram_data is not None:
             self._draw_histogram()

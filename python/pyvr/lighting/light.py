@@ -37,6 +37,8 @@ class Light:
         self.validate()
 
     def validate(self) -> None:
+        """Check the fields (finite position and target; intensities in [0, 1]); raises
+        ValueError naming the field."""
         finite_vec3("position", self.position)
         finite_vec3("target", self.target)
         if not is_number(self.ambient_intensity) or not (0.0 <= self.ambient_intensity <= 1.0):
@@ -51,6 +53,9 @@ class Light:
 
     @classmethod
     def directional(cls, direction, ambient: float = 0.2, diffuse: float = 0.8, distance: float = 10.0) -> "Light":
+        """A light shining along ``direction`` (any non-zero 3-vector): placed
+        ``distance`` back along it from the origin, with the given ambient and
+        diffuse intensities."""
         d = np.asarray(direction, dtype=np.float64).reshape(-1)
         m = np.max(np.abs(d)) if d.shape == (3,) else np.nan
         if not (np.isfinite(m) and m > 0):
@@ -61,6 +66,7 @@ class Light:
 
     @classmethod
     def point_light(cls, position, target=None, ambient: float = 0.2, diffuse: float = 0.8) -> "Light":
+        """A light at ``position`` shining at ``target`` (default the origin)."""
         light = cls(
             position=_f32(position),
             target=_f32([0, 0, 0]) if target is None else _f32(target),
@@ -72,18 +78,26 @@ class Light:
 
     @classmethod
     def default(cls) -> "Light":
+        """pyvr's default light: at (1, 1, 1) shining at the origin, ambient 0.2,
+        diffuse 0.8."""
         return cls()
 
     @classmethod
     def ambient_only(cls, intensity: float = 0.5) -> "Light":
+        """Ambient light only (``intensity``), no diffuse term: unshaded colours."""
         return cls(position=_f32([0, 0, 0]), target=_f32([0, 0, 0]), ambient_intensity=intensity, diffuse_intensity=0.0)
 
     @classmethod
     def camera_linked(cls, azimuth_offset=0.0, elevation_offset=0.0, distance_offset=0.0, ambient=0.2, diffuse=0.8):
+        """A light that follows the camera (a headlight), offset from it by the given
+        azimuth, elevation (radians) and distance; the renderer moves it on every
+        camera change."""
         light = cls(position=_f32([1, 1, 1]), target=_f32([0, 0, 0]), ambient_intensity=ambient, diffuse_intensity=diffuse)
         return light.link_to_camera(azimuth_offset, elevation_offset, distance_offset)
 
     def get_direction(self) -> np.ndarray:
+        """The unit vector from the position to the target (float32; -z when they
+        coincide)."""
         d = np.asarray(self.target, dtype=np.float64) - np.asarray(self.position, dtype=np.float64)
         n = np.linalg.norm(d)
         if not n >= 1e-9:
@@ -91,6 +105,7 @@ class Light:
         return (d / n).astype(np.float32)
 
     def copy(self) -> "Light":
+        """An independent copy, camera link and offsets included."""
         light = Light(
             position=np.array(self.position, copy=True),
             target=np.array(self.target, copy=True),
@@ -104,6 +119,8 @@ class Light:
 
     @property
     def is_linked(self) -> bool:
+        """Whether the light follows the camera (:meth:`camera_linked`,
+        :meth:`link_to_camera`)."""
         return self._is_linked
 
     def link_to_camera(self, azimuth_offset=0.0, elevation_offset=0.0, distance_offset=0.0) -> "Light":
@@ -118,6 +135,7 @@ class Light:
         return self
 
     def unlink_from_camera(self) -> "Light":
+        """Stop following the camera, keeping the current position; returns the light."""
         self._is_linked = False
         self._camera_offsets = None
         return self
@@ -150,6 +168,8 @@ class Light:
         self.target = np.array(camera.target, copy=True)
 
     def get_offsets(self) -> Optional[dict]:
+        """The camera-link offsets as a dict (``azimuth``, ``elevation``,
+        ``distance``), or None when not linked."""
         return None if self._camera_offsets is None else dict(self._camera_offsets)
 
     def __repr__(self) -> str:

@@ -70,6 +70,9 @@ class BaseTransferFunction(ABC):
 
     @abstractmethod
     def to_lut(self, size: Optional[int] = None) -> np.ndarray:
+        """The lookup table the renderer samples: ``(size,)`` opacities or ``(size,
+        3)`` colours, entry i at value i / (size - 1) of the value range (``size``
+        defaults to ``lut_size``)."""
         ...
 
     def __call__(self, size: Optional[int] = None) -> np.ndarray:

@@ -32,14 +32,17 @@ class ColorTransferFunction(BaseTransferFunction):
 
     @classmethod
     def grayscale(cls, lut_size: int = 256) -> "ColorTransferFunction":
+        """Black at the low end to white at the high end."""
         return cls([(0.0, (0.0, 0.0, 0.0)), (1.0, (1.0, 1.0, 1.0))], lut_size=lut_size)
 
     @classmethod
     def single_color(cls, color, lut_size: int = 256) -> "ColorTransferFunction":
+        """One RGB ``color`` (three numbers in [0, 1]) at every value."""
         return cls([(0.0, color), (1.0, color)], lut_size=lut_size)
 
     @classmethod
     def two_color_ramp(cls, color1, color2, lut_size: int = 256) -> "ColorTransferFunction":
+        """A linear ramp from ``color1`` at the low end to ``color2`` at the high end."""
         return cls([(0.0, color1), (1.0, color2)], lut_size=lut_size)
 
     @classmethod
@@ -65,9 +68,12 @@ class ColorTransferFunction(BaseTransferFunction):
         return self._table(size)
 
     def apply_to_array(self, scalar_array) -> np.ndarray:
+        """The RGB colour of each value in ``scalar_array`` (normalised to [0, 1]): an
+        array of its shape plus a last axis of 3."""
         return self._apply(scalar_array)
 
     def get_color_at(self, scalar: float) -> Tuple[float, float, float]:
+        """The RGB colour at one normalised value."""
         return tuple(self._apply(np.array([scalar]))[0].tolist())
 
     def __repr__(self) -> str:

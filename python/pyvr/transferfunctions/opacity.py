@@ -30,10 +30,13 @@ class OpacityTransferFunction(BaseTransferFunction):
 
     @classmethod
     def linear(cls, low: float = 0.0, high: float = 1.0, lut_size: int = 256) -> "OpacityTransferFunction":
+        """Opacity rising linearly from ``low`` at the low end to ``high`` at the high
+        end."""
         return cls([(0.0, low), (1.0, high)], lut_size=lut_size)
 
     @classmethod
     def one_step(cls, step: float = 0.5, low: float = 0.0, high: float = 1.0, lut_size: int = 256):
+        """Opacity ``low`` below the normalised value ``step`` and ``high`` from it on."""
         return cls([(0.0, low), (step, low), (step + 1e-12, high), (1.0, high)], lut_size=lut_size)
 
     @classmethod
@@ -62,6 +65,8 @@ class OpacityTransferFunction(BaseTransferFunction):
         return self._table(size)[:, 0]
 
     def apply_to_array(self, scalar_array) -> np.ndarray:
+        """The opacity of each value in ``scalar_array`` (normalised to [0, 1]), in an
+        array of its shape."""
         return self._apply(scalar_array)[..., 0]
 
     def __repr__(self) -> str:

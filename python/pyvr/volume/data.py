@@ -46,6 +46,8 @@ class Volume:
         self.validate()
 
     def validate(self) -> None:
+        """Check the data (a 3-D array, in memory or lazy), normals (shape + (3,)) and
+        bounds (min below max); raises ValueError or TypeError naming what is wrong."""
         from .._arrays import check_array_like, is_lazy
 
         if is_lazy(self.data):
@@ -77,22 +79,27 @@ class Volume:
 
     @property
     def shape(self):
+        """The data's shape (x, y, z)."""
         return self.data.shape
 
     @property
     def dimensions(self) -> np.ndarray:
+        """The box's size along each axis, ``max_bounds - min_bounds``."""
         return self.max_bounds - self.min_bounds
 
     @property
     def center(self) -> np.ndarray:
+        """The box's centre."""
         return (self.min_bounds + self.max_bounds) / 2
 
     @property
     def has_normals(self) -> bool:
+        """Whether per-voxel normals are stored."""
         return self.normals is not None
 
     @property
     def voxel_spacing(self) -> np.ndarray:
+        """The box's size divided by the voxel counts, per axis."""
         return self.dimensions / np.array(self.data.shape)
 
     def histogram(self, bins: int = 256, value_range=None, *, log: bool = False):
@@ -124,6 +131,8 @@ class Volume:
         return counts, edges
 
     def compute_normals(self, method: str = "gradient") -> None:
+        """Store normals computed from the data's gradient (``method='gradient'``, the
+        only one): :func:`pyvr.datasets.compute_normal_volume`."""
         if method != "gradient":
             raise ValueError(f"Unsupported method: {method}")
         from ..datasets.synthetic import compute_normal_volume
@@ -131,6 +140,8 @@ class Volume:
         self.normals = compute_normal_volume(self.data)
 
     def normalize(self, method: str = "minmax") -> "Volume":
+        """A new volume with the data scaled to [0, 1] (``'minmax'``) or to zero mean
+        and unit deviation (``'zscore'``), as float32."""
         d = self.data.astype(np.float32)
         if method == "minmax":
             lo, hi = float(np.min(d)), float(np.max(d))
@@ -150,6 +161,7 @@ class Volume:
         )
 
     def copy(self) -> "Volume":
+        """An independent copy of the data, normals, bounds and metadata."""
         return Volume(
             data=self.data.copy(),
             normals=None if self.normals is None else self.normals.copy(),
