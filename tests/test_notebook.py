@@ -5,6 +5,7 @@ import base64
 import io
 import os
 import re
+import sys
 
 import numpy as np
 import pytest
@@ -175,7 +176,7 @@ def test_view_refines_while_it_stands_still(renderer):
         VolumeView(renderer, refine_frames=-1)
 
 
-def test_the_view_and_the_still_show_the_same_visible_picture():
+def test_the_view_and_the_still_show_the_same_visible_picture(monkeypatch):
     # The notebook's first picture with the defaults (no transfer functions
     # set, no camera): the live view's frames lose their alpha on the way to
     # the browser, so both are composited over one background. Over black the
@@ -194,6 +195,11 @@ def test_the_view_and_the_still_show_the_same_visible_picture():
     contrast = np.abs(live[..., :3].astype(int) - 255).mean(axis=-1)[covered].mean()
     over_black = r.render(origin="upper", background="black")[..., :3].astype(int).mean(axis=-1)[covered].mean()
     assert contrast > 80 and over_black < 10, (contrast, over_black)
+    # Colour names need matplotlib; the default does not.
+    with monkeypatch.context() as m:
+        m.setitem(sys.modules, "matplotlib", None)
+        assert np.array_equal(VolumeView(r).draw(), live)
+        assert np.array_equal(np.array(Image.open(io.BytesIO(r._repr_png_()))), still)
     # Colours by name or RGB; no background at all is refused, naming why.
     assert VolumeView(r, background=(0, 0, 0)).draw()[..., :3].max() < 255
     for bad in (None, "none"):

@@ -129,6 +129,7 @@ def _settled(driver, quiet=1.5):
 
 def test_the_view_shows_a_visible_first_picture_and_a_drag_turns_it(lab, browser):
     from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.actions.wheel_input import ScrollOrigin
     from selenium.webdriver.common.by import By
 
     browser.get(lab)
@@ -157,3 +158,15 @@ def test_the_view_shows_a_visible_first_picture_and_a_drag_turns_it(lab, browser
     change = np.abs(after.astype(int) - first.astype(int)).mean(axis=-1)
     assert (change > 30).mean() > 0.01, (change > 30).mean()
     assert after.shape == first.shape
+
+    # The view has the focus (it was dragged): the wheel zooms out, and the
+    # spheres cover fewer pixels (one step moves the camera 1.1 times as far:
+    # about 1/1.21 of the area).
+    ActionChains(browser).scroll_from_origin(ScrollOrigin.from_element(img), 0, 300).perform()
+    _wait("a frame of the zoomed view", lambda: (_shown(browser) or (src,))[0] != src)
+    _, zoomed = _wait("the view to settle", lambda: _settled(browser))
+
+    def covered(rgb):
+        return (np.abs(rgb.mean(axis=-1) - 255) > 30).mean()
+
+    assert covered(zoomed) < 0.9 * covered(after), (covered(zoomed), covered(after))

@@ -13,8 +13,8 @@ from .config import RenderConfig
 # What notebooks show frames over, the still (``_repr_png_``) and the live
 # view alike: jupyter_rfb sends frames to the browser without alpha, so a
 # transparent background would be black there and the page's colour in the
-# still.
-NOTEBOOK_BACKGROUND = "white"
+# still. White as RGB: colour names need matplotlib, which notebooks need not have.
+NOTEBOOK_BACKGROUND = (1.0, 1.0, 1.0)
 
 
 def output_format(dt: np.dtype, premultiplied: bool, bg, origin: str) -> tuple:
