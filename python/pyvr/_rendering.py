@@ -170,8 +170,11 @@ class FrameRendering:
         # Each frame adds its pixels to the sums as it is made (no image of
         # its own: at 1024x1024 numpy's sums took longer than the frames).
         total = np.zeros((h, w, 4), np.float64)
-        for k in range(n):
-            self._render_frame(size, base.replace(jitter_seed=(base.jitter_seed + k) % 2**32), sums=total)
+        # Every frame of the mean from one state: a camera, light, config or
+        # transfer function set from another thread waits for the whole mean.
+        with self._lock:
+            for k in range(n):
+                self._render_frame(size, base.replace(jitter_seed=(base.jitter_seed + k) % 2**32), sums=total)
         return mean_image(total, n)
 
     def render_float64(self, *, config: Optional[RenderConfig] = None, premultiplied: bool = False,
@@ -283,9 +286,10 @@ class FrameRendering:
         progress: show a tqdm progress bar; None (default) shows one when
         tqdm is installed. origin defaults to "upper" (row 0 at the top, as
         image and video files store frames); background and dtype are as in
-        ``render``. A camera-linked light follows each frame's camera. The
-        renderer's own camera (and linked light) is restored when the
-        generator finishes, fails, is closed or is interrupted with Ctrl-C.
+        ``render``. A camera-linked light follows each frame's camera. Each
+        frame is rendered under the renderer's lock and its own camera (and
+        linked light) restored before the frame is yielded: between frames,
+        and to other threads or generators, the renderer is as it was.
         """
         count, cameras = _path_cameras(path, n_frames, endpoint)
         if self.volume is None:
@@ -296,19 +300,28 @@ class FrameRendering:
         return self._frames(count, cameras, make_bar, dict(origin=origin, background=background, dtype=dtype))
 
     def _frames(self, count, cameras, make_bar, options):
-        saved = (self.camera, self._camera_args, self.light.position, self.light.target, self._light_args)
         bar = None if make_bar is None else make_bar(count)
         try:
             for cam in cameras:
-                self.set_camera(cam)
-                yield self.render(**options)
+                # Each frame under the lock with the path's camera, the
+                # renderer's own restored before the frame is handed out: between
+                # frames (and to another generator or thread) the renderer is as
+                # the user left it.
+                with self._lock:
+                    saved = (self.camera, self._camera_args, self.light.position.copy(), self.light.target.copy(),
+                             self._light_args)
+                    try:
+                        self.set_camera(cam)
+                        img = self.render(**options)
+                    finally:
+                        self.camera, self._camera_args = saved[0], saved[1]
+                        self.light.position, self.light.target, self._light_args = saved[2], saved[3], saved[4]
+                yield img
                 if bar is not None:
                     bar.update(1)
         finally:
             if bar is not None:
                 bar.close()
-            self.camera, self._camera_args = saved[0], saved[1]
-            self.light.position, self.light.target, self._light_args = saved[2], saved[3], saved[4]
 
     def _repr_png_(self) -> Optional[bytes]:
         """Jupyter shows a renderer as its current frame (PNG, top row first)

@@ -139,6 +139,7 @@ class VolumeRenderer(VolumeLoading, FrameRendering):
     # -- scene -----------------------------------------------------------
 
 
+    @_serialised
     def set_camera(self, camera: Camera) -> None:
         """Use this camera; later changes to the object need another set_camera."""
         if not isinstance(camera, Camera):
@@ -153,6 +154,7 @@ class VolumeRenderer(VolumeLoading, FrameRendering):
             self.light.update_from_camera(camera)
             self._light_args = _light_tuple(self.light)
 
+    @_serialised
     def set_light(self, light: Light) -> None:
         """Use ``light`` from the next frame; a camera-linked light is placed from the
         current camera at once."""
@@ -250,6 +252,7 @@ class VolumeRenderer(VolumeLoading, FrameRendering):
         """((x, y, z), (x, y, z)) set by set_crop_box, or None."""
         return self._crop
 
+    @_serialised
     def set_config(self, config: RenderConfig) -> None:
         """Use ``config`` (a :class:`~pyvr.config.RenderConfig`) from the next frame;
         uploads no volume data."""

@@ -401,6 +401,86 @@ def case_nrrd(kind, folder):
     return f"loaded {image.data.shape} sum {float(np.sum(image.data)):.0f}"
 
 
+def _two_state_renderer():
+    """A small renderer and two transfer-function states that give
+    different frames."""
+    from pyvr import RenderConfig, VolumeRenderer
+    from pyvr.camera import Camera
+    from pyvr.transferfunctions import ColorTransferFunction, OpacityTransferFunction
+    from pyvr.volume import Volume
+
+    x = np.linspace(-1, 1, 24, dtype=np.float32)
+    data = np.exp(-4 * (x[:, None, None] ** 2 + x[None, :, None] ** 2 + x[None, None, :] ** 2)).astype(np.float32)
+    r = VolumeRenderer(40, 32, config=RenderConfig.fast())
+    r.load_volume(Volume(data))
+    r.set_camera(Camera.isometric_view())
+    states = [(ColorTransferFunction.from_colormap("viridis"), OpacityTransferFunction.linear(0.0, 0.5)),
+              (ColorTransferFunction.from_colormap("magma"), OpacityTransferFunction.linear(0.2, 1.0))]
+    return r, states
+
+
+def case_accumulate_race(rounds):
+    """render(accumulate=n) in one thread while another switches transfer
+    functions and cameras: every mean must be one state's mean."""
+    from pyvr.camera import Camera
+
+    r, states = _two_state_renderer()
+    cams = [Camera.isometric_view(), Camera.front_view()]
+    expected = []
+    for tf in states:
+        for cam in cams:
+            r.set_transfer_functions(*tf)
+            r.set_camera(cam)
+            expected.append(r.render(accumulate=6))
+    stop = threading.Event()
+
+    def switch():
+        k = 0
+        while not stop.is_set():
+            r.set_transfer_functions(*states[k % 2])
+            r.set_camera(cams[(k // 2) % 2])
+            k += 1
+
+    t = threading.Thread(target=switch)
+    t.start()
+    try:
+        means = [r.render(accumulate=6) for _ in range(int(rounds))]
+    finally:
+        stop.set()
+        t.join(timeout=60)
+    mixed = sum(not any(np.array_equal(m, e) for e in expected) for m in means)
+    return f"{mixed} of {len(means)} means mixed states"
+
+
+def case_interleaved_paths():
+    """Two render_path generators advanced in turn: each frame is its own
+    camera's, and between frames the renderer keeps the user's camera."""
+    from pyvr.camera import Camera
+
+    r, states = _two_state_renderer()
+    r.set_transfer_functions(*states[0])
+    own = Camera.isometric_view()
+    r.set_camera(own)
+    paths = ([Camera.front_view(), Camera.side_view(), Camera.top_view()],
+             [Camera.from_spherical(np.zeros(3, np.float32), a, 0.3, 0.0, 3.0) for a in (0.5, 1.0, 1.5)])
+    gens = [r.render_path(p, origin="lower", progress=False) for p in paths]
+    frames = [[], []]
+    for _ in range(3):
+        for i, g in enumerate(gens):
+            frames[i].append(next(g))
+            if r.get_camera() is not own:
+                return "the renderer's camera changed between frames"
+    wrong = 0
+    for cams, imgs in zip(paths, frames):
+        for cam, img in zip(cams, imgs):
+            r.set_camera(cam)
+            wrong += not np.array_equal(img, r.render())
+    r.set_camera(own)
+    for g in gens:
+        g.close()
+    return f"{wrong} of 6 frames wrong, camera kept: {r.get_camera() is own}"
+
+
 if __name__ == "__main__":
     sys.path.insert(0, os.path.dirname(__file__))
     try:
