@@ -532,3 +532,32 @@ def test_real_tk_window_under_xvfb(tmp_path):
     assert seen["scroll_frame"][0] < 128  # cheap while the wheel turns...
     assert seen["settled_frame"][:2] == [128, 128]  # ...full again when the timer fires
     assert seen["drawn"] and seen["azimuth"] < np.pi / 4 - 0.05
+
+
+@pytest.mark.parametrize("half_width, centre", [(1e30, 0.0), (1e-30, 0.0), (1e6, 0.0), (1e30, 1e30)])
+def test_boxes_far_from_pyvrs_scale_are_framed_like_its_own(half_width, centre, monkeypatch, tmp_path):
+    # pyvr's presets and home view are made for the [-1, 1] box; a box 1e30
+    # wide made the constructor raise (max_steps past 2^32) and would have
+    # put the camera inside it. Scaled to the box, the frame is the [-1, 1]
+    # box's frame exactly (the engines are scale-free).
+    monkeypatch.setattr(cache, "CACHE_DIR", tmp_path / "cache")
+    x = np.linspace(-1, 1, 16)
+    data = np.exp(-3 * (x[:, None, None] ** 2 + x[None, :, None] ** 2 + x[None, None, :] ** 2)).astype(np.float32)
+
+    def frame(h, c):
+        vol = Volume(data, min_bounds=np.full(3, c - h, np.float32), max_bounds=np.full(3, c + h, np.float32))
+        ui = InteractiveVolumeRenderer(vol, width=48, height=40)
+        return ui, ui.renderer.render(dtype=np.float32)
+
+    home, expected = frame(1.0, 0.0)
+    # pyvr's own box keeps pyvr's view: isometric at distance 3, at the origin.
+    assert home.camera_controller.params.distance == 3.0 and not np.any(home.camera_controller.params.target)
+    ui, img = frame(half_width, centre)
+    assert img[..., 3].max() > 0.5
+    assert np.abs(img - expected).max() * 255 < 0.01
+    # The home view key brings back the scaled view.
+    ui._build_figure()
+    ui.camera_controller.orbit(1.0, 0.2)
+    ui._reset_view()
+    assert np.isclose(ui.camera_controller.params.distance, 3.0 * half_width, rtol=1e-6)
+    matplotlib.pyplot.close(ui.fig)

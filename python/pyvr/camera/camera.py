@@ -84,7 +84,8 @@ class Camera:
             raise ValueError("init_pos must be a 3D numpy array")
         if not is_vec3(self.init_up):
             raise ValueError("init_up must be a 3D numpy array")
-        if np.linalg.norm(self.init_pos - self.target) < 1e-9:
+        # In float64: float32 squares overflow for boxes past 1e19 across.
+        if np.linalg.norm(np.asarray(self.init_pos, np.float64) - np.asarray(self.target, np.float64)) < 1e-9:
             raise ValueError("init_pos must not be at the same location as target")
         if np.linalg.norm(self.init_up) < 1e-9:
             raise ValueError("init_up must not be the zero vector")

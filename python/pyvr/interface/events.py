@@ -8,7 +8,7 @@ from typing import Optional
 import numpy as np
 from matplotlib.backend_tools import Cursors
 
-from ..camera import Camera
+from .framing import _home_camera
 
 
 class EventHandlers:
@@ -170,7 +170,7 @@ class EventHandlers:
             action()
 
     def _reset_view(self) -> None:
-        self.camera_controller.params = Camera.isometric_view(distance=3.0)
+        self.camera_controller.params = _home_camera(self.volume)
         self.state.needs_render = True
         self._update_display(force_render=True)
 

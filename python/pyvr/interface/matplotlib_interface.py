@@ -17,6 +17,7 @@ from typing import Optional
 
 import matplotlib
 import matplotlib.pyplot as plt
+
 import numpy as np
 from matplotlib.gridspec import GridSpec
 
@@ -32,6 +33,7 @@ from ..transferfunctions import ColorTransferFunction, OpacityTransferFunction
 from ..transferfunctions.value_range import storage_unit
 from ..volume import Volume
 from . import cache
+from .framing import _crossing, _home_camera, _home_light
 from .state import PRESETS, InterfaceState
 from .events import EventHandlers
 from .frames import FramePipeline
@@ -53,15 +55,6 @@ _CONTROLS = (
     "  t: Toggle control mode Esc: Deselect\n"
     "  Del: Remove selected   ctrl+w: Close\n"
 )
-
-
-def _crossing(cfg: RenderConfig, volume: Volume) -> RenderConfig:
-    """The config with max_steps raised so rays cross the whole volume
-    (pyvr's presets stop rays after a fixed length, shorter than the
-    [-1, 1] box's diagonal for preview, fast and ultra_quality)."""
-    lo, hi = np.asarray(volume.min_bounds, np.float64), np.asarray(volume.max_bounds, np.float64)
-    needed = int(np.ceil(np.linalg.norm(hi - lo) / cfg.step_size)) + 2
-    return cfg.with_max_steps(needed) if needed > cfg.max_steps else cfg
 
 
 def _on_off(flag) -> str:
@@ -92,8 +85,8 @@ class InteractiveVolumeRenderer(FramePipeline, EventHandlers):
         check_count("refine_frames", refine_frames, low=0, high=1 << 16)  # before the volume is loaded
         # The default is pyvr's (fast), with rays that reach the far side.
         config = _crossing(RenderConfig.fast(), volume) if config is None else config
-        camera = Camera.isometric_view(distance=3.0) if camera is None else camera
-        light = Light.directional([1, -1, 0]) if light is None else light
+        camera = _home_camera(volume) if camera is None else camera
+        light = _home_light(volume) if light is None else light
         self.volume = volume
         self.width = width
         self.height = height
