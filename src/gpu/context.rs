@@ -115,6 +115,17 @@ impl GpuContext {
         Ok(GpuContext { device, queue, adapter_info, limits, features, uncaptured })
     }
 
+    /// Hands queued uploads to the device and frees what finished work no
+    /// longer needs, without waiting. wgpu keeps replaced textures and their
+    /// staging memory until a submission that follows them completes; frames
+    /// the native march renders submit nothing, so without this every table
+    /// uploaded between them would stay.
+    pub fn settle(&self) {
+        self.queue.submit([]);
+        // Only a non-blocking sweep: an error here would also show at the next frame.
+        let _ = self.device.poll(wgpu::PollType::Poll);
+    }
+
     /// Runs `f` inside validation and out-of-memory error scopes and turns
     /// what they catch into an error.
     pub fn scoped<T>(&self, what: &str, f: impl FnOnce() -> T) -> Result<T, Error> {

@@ -431,6 +431,9 @@ impl Renderer {
         }
         self.pending_upload += bytes;
         self.counters.lut_uploads += 1;
+        if let Some(ctx) = self.dev.gpu.as_deref() {
+            ctx.settle();
+        }
         Ok(())
     }
 

@@ -481,6 +481,47 @@ def case_interleaved_paths():
     return f"{wrong} of 6 frames wrong, camera kept: {r.get_camera() is own}"
 
 
+def _rss_kib() -> int:
+    with open("/proc/self/status") as f:
+        for line in f:
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1])
+    raise RuntimeError("no VmRSS")
+
+
+def case_growth(kind, calls):
+    """Resident memory per call, after a warm-up, of what the interface does
+    on every drag (a transfer-function change, then a frame) or of reloads."""
+    import gc
+
+    from pyvr import VolumeRenderer
+    from pyvr.transferfunctions import ColorTransferFunction, OpacityTransferFunction
+    from pyvr.volume import Volume
+
+    r = VolumeRenderer(48, 40)
+    data = np.random.default_rng(0).random((24, 24, 24), np.float32)
+    r.load_volume(Volume(data))
+    ctf = ColorTransferFunction.from_colormap("viridis")
+
+    def call(k):
+        if kind == "tf":
+            r.set_transfer_functions(ctf, OpacityTransferFunction.linear(0.0, 0.1 + (k % 7) * 0.01))
+            r.render()
+        else:
+            r.load_volume(Volume(data))
+            r.set_transfer_functions(ctf, OpacityTransferFunction.linear(0.0, 0.1 + (k % 7) * 0.01))
+
+    for k in range(300):
+        call(k)
+    gc.collect()
+    before = _rss_kib()
+    n = int(calls)
+    for k in range(n):
+        call(k)
+    gc.collect()
+    return f"{(_rss_kib() - before) / n:.2f} KiB per call"
+
+
 if __name__ == "__main__":
     sys.path.insert(0, os.path.dirname(__file__))
     try:
