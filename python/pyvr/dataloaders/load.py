@@ -1,8 +1,11 @@
 """``pyvr.load``: one call from a file to a Volume, for every format pyvr
 reads, choosing the reader by extension or, failing that, by content."""
 
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Callable, Dict, Optional
+
+import numpy as np
 
 from ..volume import Volume
 from .image import FileFormatError, GridImage, to_volume
@@ -63,6 +66,34 @@ def detect_format(path) -> str:
     )
 
 
+_PACKAGE = Path(__file__).resolve().parents[1]
+
+
+def _raised_in_pyvr(error: BaseException) -> bool:
+    """Whether the innermost frame of the error's traceback is pyvr's own."""
+    tb = error.__traceback__
+    while tb is not None and tb.tb_next is not None:
+        tb = tb.tb_next
+    return tb is not None and Path(tb.tb_frame.f_code.co_filename).resolve().is_relative_to(_PACKAGE)
+
+
+@contextmanager
+def _named_errors(path, fmt: str):
+    """Errors from the libraries under a reader (zipfile, numcodecs, numpy's
+    linear algebra, EOFError, StopIteration, ...) as FileFormatError naming
+    the file. pyvr's own errors (a bad argument, a refused file), OSError,
+    MemoryError and a missing extra's ImportError pass unchanged."""
+    try:
+        yield
+    except (FileFormatError, OSError, MemoryError, ImportError):
+        raise
+    except Exception as e:
+        ours = isinstance(e, (TypeError, ValueError)) and not isinstance(e, np.linalg.LinAlgError)
+        if ours and _raised_in_pyvr(e):
+            raise
+        raise FileFormatError(f"{path}: not a readable {fmt} file ({type(e).__name__}: {e})") from e
+
+
 def read(path, *, format: Optional[str] = None, **options) -> GridImage:
     """The file as a GridImage (voxels and physical geometry), without
     making a Volume. ``options`` go to the format's reader."""
@@ -74,7 +105,8 @@ def read(path, *, format: Optional[str] = None, **options) -> GridImage:
         raise ValueError(f"format must be one of {sorted(FORMATS)}, got {fmt!r}")
     if fmt in ("vti", "vtk", "nifti", "nrrd", "tiff", "npy", "raw") and p.is_dir():
         raise IsADirectoryError(f"{p} is a folder; a {fmt} volume is one file")
-    return _reader(fmt)(p, **options)
+    with _named_errors(p, fmt):
+        return _reader(fmt)(p, **options)
 
 
 def load(path, *, format: Optional[str] = None, box: str = "unit", normals: bool = False,
@@ -104,6 +136,8 @@ def load(path, *, format: Optional[str] = None, box: str = "unit", normals: bool
     uses the field's gradient, which knows the spacing).
     """
     image = read(path, format=format, **options)
-    vol = to_volume(image, box=box, normals=normals, value_range=value_range)
+    # Lazy formats (zarr) read their chunks here, for the data's value range.
+    with _named_errors(path, format or detect_format(Path(path))):
+        vol = to_volume(image, box=box, normals=normals, value_range=value_range)
     vol.metadata["path"] = str(path)
     return vol

@@ -1,0 +1,52 @@
+"""Errors from the libraries under the readers reach the user as
+FileFormatError naming the file, the library's error kept as its cause;
+pyvr's own argument errors pass unchanged."""
+
+import glob
+import os
+
+import numpy as np
+import pytest
+
+import pyvr
+from pyvr.dataloaders import FileFormatError
+
+DATA = np.arange(8 * 8 * 8, dtype=np.float32).reshape(8, 8, 8)
+
+
+def test_corrupt_zarr_chunks_name_the_store(tmp_path):
+    zarr = pytest.importorskip("zarr")
+    store = tmp_path / "c.zarr"
+    z = zarr.open(str(store), mode="w", shape=(8, 8, 8), chunks=(4, 4, 4), dtype="f4")
+    z[:] = DATA
+    chunks = [f for f in glob.glob(f"{store}/**", recursive=True)
+              if os.path.isfile(f) and not os.path.basename(f).startswith(".") and not f.endswith(".json")]
+    assert chunks
+    for f in chunks:
+        with open(f, "wb") as out:
+            out.write(b"\x00garbage" * 3)
+    # numcodecs' RuntimeError reached the user, without the store's name.
+    with pytest.raises(FileFormatError, match=r"c\.zarr: not a readable zarr file \(RuntimeError: ") as info:
+        pyvr.load(store)
+    assert isinstance(info.value.__cause__, RuntimeError)
+
+
+@pytest.mark.parametrize("cut", ["truncated", "garbage"])
+def test_broken_npz_names_the_file(tmp_path, cut):
+    good = tmp_path / "a.npz"
+    np.savez_compressed(good, v=DATA)
+    bad = tmp_path / "b.npz"
+    body = good.read_bytes()
+    bad.write_bytes(body[:-40] if cut == "truncated" else b"PK\x03\x04" + bytes(100))
+    # zipfile's BadZipFile reached the user unwrapped.
+    with pytest.raises(FileFormatError, match=r"b\.npz: not a readable npy file \(BadZipFile: "):
+        pyvr.load(bad)
+
+
+def test_pyvrs_own_argument_errors_pass_unchanged(tmp_path):
+    path = tmp_path / "a.npz"
+    np.savez_compressed(path, v=DATA)
+    with pytest.raises(ValueError, match="value_range must be 'data', None or"):
+        pyvr.load(path, value_range="x")
+    with pytest.raises(ValueError, match="has no array 'nope'"):
+        pyvr.load(path, key="nope")
