@@ -127,6 +127,13 @@ def _read_file_block(mm: np.memmap, ranges) -> Optional[np.ndarray]:
     row = n2 * mm.dtype.itemsize
     out = np.empty((i1 - i0, j1 - j0, k1 - k0), dtype=mm.dtype)
     with open(mm.filename, "rb") as f:
+        # The path may now name another file (saved over by rename): the
+        # mapping still holds the one the volume was made from, so read
+        # through it. The first read records which file that is.
+        st = os.fstat(f.fileno())
+        seen = mm.__dict__.setdefault("_pyvr_file", (st.st_dev, st.st_ino))
+        if seen != (st.st_dev, st.st_ino):
+            return None
         for i in range(i0, i1):
             start = mm.offset + (i * n1 + j0) * row
             want = (j1 - j0) * row

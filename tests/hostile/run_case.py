@@ -350,6 +350,26 @@ def case_truncated_memmap(layout, path):
     return "rendered"
 
 
+def case_replaced_memmap(path):
+    """A memmap's file saved over (a new file renamed onto its path) after
+    loading: frames keep showing the mapped volume, not the new file."""
+    from pyvr import VolumeRenderer
+    from pyvr.volume import Volume
+
+    shape = (96, 80, 72)
+    np.random.RandomState(1).rand(*shape).astype(np.float32).tofile(path)
+    data = np.memmap(path, dtype=np.float32, mode="r", shape=shape)
+    # Over the budget: bricks are read again for every frame.
+    r = VolumeRenderer(32, 32, brick_shape=(16, 16, 16), memory_budget=1 << 20)
+    r.load_volume(Volume(data))
+    before = r.render()
+    assert not r.bricks["resident"]
+    np.zeros(shape, np.float32).tofile(path + ".new")
+    os.replace(path + ".new", path)
+    after = r.render()
+    return "the same frame" if np.array_equal(before, after) else "a different frame"
+
+
 def _nrrd_header(sizes="4 4 4", encoding="raw", extra=""):
     return (f"NRRD0004\ntype: float\ndimension: 3\nsizes: {sizes}\nencoding: {encoding}\n"
             f"endian: little\n{extra}\n").encode()
