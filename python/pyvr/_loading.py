@@ -16,6 +16,7 @@ from ._storage import (
     _check_volume_fits,
     _fixed16_range,
     _value_map_for,
+    check_float32_storage,
     device_limits,
     device_texel_bytes,
     prepare_normals,
@@ -98,6 +99,8 @@ class VolumeLoading:
         volume.validate()
         # Checked before anything changes: a load that raises leaves the renderer as it was.
         _value_map_for(self._tf_value_range or volume.value_range, volume.data.dtype)
+        if not bricks.is_lazy(volume.data):
+            check_float32_storage(volume.data)
         if precision not in PRECISIONS:
             raise ValueError(f"precision must be one of {', '.join(map(repr, PRECISIONS))}, got {precision!r}")
         bounds = (_vec(volume.min_bounds), _vec(volume.max_bounds))

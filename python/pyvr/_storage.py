@@ -221,11 +221,37 @@ def _check_volume_fits(volume: Volume, precision: str) -> None:
     check_fits(f"loading volume {shape}", copy + 2 * stored_bytes + rounded, "downsample or crop the volume")
 
 
+_F32 = np.finfo(np.float32)
+
+
+def check_float32_storage(data: np.ndarray) -> None:
+    """A ValueError, before anything is stored, for float data with finite
+    values past float32's largest: the engines store voxels as float32,
+    where they would become inf."""
+    a = np.asarray(data)
+    if a.dtype.kind != "f" or a.dtype.itemsize <= 4 or a.size == 0:
+        return
+    magnitude = np.abs(a)
+    largest = float(np.max(magnitude, where=np.isfinite(magnitude), initial=0.0))
+    if largest > float(_F32.max):
+        raise ValueError(f"volume values reach {largest:.3g}, past float32's largest {float(_F32.max):.3g}, which "
+                         "the engines store voxels as: scale the data (and its value range) into float32's range")
+
+
 def _value_map_for(value_range, dtype) -> tuple:
     """The (scale, offset) taking ``dtype``'s device samples to the transfer
     functions' [0, 1] over ``value_range``, or a ValueError when it is not
     finite (a range so wide that high - low overflows, or so narrow that
     its inverse does)."""
+    if value_range is not None:
+        lo, hi = value_range
+        # The engines sample float32: two values closer than its spacing
+        # there (or than its smallest normal number, which GPUs flush
+        # below) are one value to them.
+        resolvable = max(float(_F32.tiny) * 2.0**23, max(abs(lo), abs(hi)) * 2.0**-22)
+        if hi - lo < resolvable:
+            raise ValueError(f"value_range {value_range} is narrower than float32, which the engines sample, "
+                             f"can resolve there (at least {resolvable:.3g} wide): scale the data and its range")
     scale, offset = sample_map(value_range, dtype)
     if not (np.isfinite(scale) and scale > 0 and np.isfinite(offset)):
         raise ValueError(f"value_range {value_range} cannot map {np.dtype(dtype).name} values onto the transfer "

@@ -108,3 +108,43 @@ def test_projections_and_isosurface_skip_nan_as_in_f64(model):
     cfg = RenderConfig.balanced().replace(model=model, iso_value=0.5)
     err, _ = gpu_vs_f64(Volume(data), config=cfg)
     assert err < TOL, err * 255
+
+
+@pytest.mark.parametrize("scale, expected", [
+    (1e-300, "is narrower than float32, which the engines sample, can resolve"),  # float32 reads zero
+    (1e-40, "is narrower than float32, which the engines sample, can resolve"),   # subnormal: GPUs flush it
+    (1e300, "past float32's largest"),                                              # float32 reads inf
+])
+def test_float_data_outside_float32_is_refused_before_anything_changes(scale, expected):
+    # The data's own value range 1e-300 wide rendered an empty frame on both
+    # engines and the float64 integrator; 1e-40 wide rendered empty where
+    # the integrator drew the volume (245 levels apart).
+    from pyvr import VolumeRenderer
+    from pyvr.volume import Volume
+
+    x = np.linspace(-1, 1, 12)
+    base = np.exp(-3 * (x[:, None, None] ** 2 + x[None, :, None] ** 2 + x[None, None, :] ** 2))
+    r = VolumeRenderer(24, 20)
+    kept = Volume(base.astype(np.float32))
+    r.load_volume(kept)
+    tiny = Volume(base * scale)
+    tiny.value_range = (0.0, float(scale))
+    with pytest.raises(ValueError, match=expected):
+        r.load_volume(tiny)
+    assert r.get_volume() is kept
+    # pyvr's [0, 1] rule reads such values as the 0 they nearly are.
+    if scale < 1:
+        tiny.value_range = None
+        r.load_volume(tiny)
+        assert r.render()[..., 3].max() == 0
+    # Data within float32's range, however small or large, renders as the
+    # float64 integrator does.
+    from pyvr.transferfunctions import ColorTransferFunction, OpacityTransferFunction
+
+    for ok in (1e-30, 1e30):
+        r.load_volume(Volume(base * ok))
+        r.set_transfer_functions(ColorTransferFunction.from_colormap("viridis"), OpacityTransferFunction.linear(0, 0.5),
+                                 value_range=(0.0, ok))
+        img = r.render(dtype=np.float32, premultiplied=True)
+        assert img[..., 3].max() > 0.5
+        assert np.abs(img - r.render_float64(premultiplied=True)).max() * 255 < 0.01
