@@ -50,3 +50,33 @@ def test_pyvrs_own_argument_errors_pass_unchanged(tmp_path):
         pyvr.load(path, value_range="x")
     with pytest.raises(ValueError, match="has no array 'nope'"):
         pyvr.load(path, key="nope")
+
+
+def test_a_huge_nifti_header_extension_is_refused_before_it_is_read(tmp_path):
+    # nibabel reads extensions whole: a 1 MB .nii.gz declaring 1 GiB of them
+    # took 10 s and 1.1 GiB, then loaded. Here 96 MiB of zeros (about 100 KB
+    # compressed) against the 64 MiB default.
+    import gzip
+    import time
+
+    nib = pytest.importorskip("nibabel")
+    plain = tmp_path / "a.nii"
+    nib.save(nib.Nifti1Image(DATA, np.eye(4)), plain)
+    header = bytearray(plain.read_bytes()[:352])
+    extension = 96 << 20
+    header[108:112] = np.float32(352 + extension).tobytes()
+    header[348:352] = b"\x01\x00\x00\x00"  # "extensions follow"
+    path = tmp_path / "big.nii.gz"
+    with gzip.open(path, "wb", compresslevel=1) as f:
+        f.write(header)
+        # One comment extension: its size (a multiple of 16) and code, then text.
+        f.write(np.array([extension, 6], "<i4").tobytes())
+        f.write(bytes(extension - 8))
+        f.write(DATA.tobytes())
+    start = time.perf_counter()
+    with pytest.raises(FileFormatError, match=r"declares 100663296 bytes of extensions .* max_extension_bytes"):
+        pyvr.load(path)
+    assert time.perf_counter() - start < 1.0
+    # Widened, the same file loads.
+    vol = pyvr.load(path, max_extension_bytes=128 << 20)
+    assert vol.shape == DATA.shape

@@ -28,16 +28,48 @@ def _check_layout(path, img) -> None:
                                   f"the file holds {size}")
 
 
-def load_nifti(path, *, index: Optional[int] = None) -> GridImage:
+#: Header extensions larger than this are refused before nibabel reads them
+#: (it reads them whole, into memory): real ones (DICOM fields, comments)
+#: are kilobytes to a few megabytes.
+MAX_EXTENSION_BYTES = 64 << 20
+
+
+def _extension_bytes(path) -> int:
+    """Bytes of header extensions the file declares (its vox_offset past
+    the header), read from the first bytes only (decompressing no more)."""
+    import gzip
+    import struct
+
+    opener = gzip.open if str(path).lower().endswith(".gz") else open
+    try:
+        with opener(path, "rb") as f:
+            head = f.read(540)
+    except (OSError, EOFError):
+        return 0  # nibabel reports what is wrong with such a file
+    for order in ("<", ">"):
+        if len(head) >= 112 and struct.unpack(order + "i", head[:4])[0] == 348:
+            return max(0, int(struct.unpack(order + "f", head[108:112])[0]) - 352)
+        if len(head) >= 176 and struct.unpack(order + "i", head[:4])[0] == 540:
+            return max(0, struct.unpack(order + "q", head[168:176])[0] - 544)
+    return 0
+
+
+def load_nifti(path, *, index: Optional[int] = None, max_extension_bytes: int = MAX_EXTENSION_BYTES) -> GridImage:
     """Reads a NIfTI image reoriented to RAS+ (nibabel's closest canonical
     orientation): axis 0 increases towards the patient's right, axis 1
     anterior, axis 2 superior, as scanners' world coordinates do. Spacing is
     the voxel size, origin the first voxel's centre from the affine (after
     reorientation), units the header's spatial unit. Scaling (scl_slope,
     scl_inter) is applied; unscaled integer data keeps its type. A 4-D image
-    needs ``index`` (which volume of the series)."""
+    needs ``index`` (which volume of the series). Header extensions over
+    ``max_extension_bytes`` (64 MiB) are refused before they are read."""
     nib = require("nibabel", "nifti", "Reading NIfTI")
     path = str(path)
+    limit = check_count("max_extension_bytes", max_extension_bytes, low=0, high=1 << 62)
+    extension = _extension_bytes(path)
+    if extension > limit:
+        raise FileFormatError(f"{path}: the header declares {extension} bytes of extensions (vox_offset), over "
+                              f"max_extension_bytes={limit}; pass a larger max_extension_bytes to read them")
     try:
         img = nib.load(path)
     except FileNotFoundError:
