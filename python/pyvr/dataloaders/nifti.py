@@ -48,7 +48,9 @@ def _extension_bytes(path) -> int:
         return 0  # nibabel reports what is wrong with such a file
     for order in ("<", ">"):
         if len(head) >= 112 and struct.unpack(order + "i", head[:4])[0] == 348:
-            return max(0, int(struct.unpack(order + "f", head[108:112])[0]) - 352)
+            offset = struct.unpack(order + "f", head[108:112])[0]
+            # NaN or inf: nibabel reports the header as it finds it.
+            return max(0, int(offset) - 352) if np.isfinite(offset) else 0
         if len(head) >= 176 and struct.unpack(order + "i", head[:4])[0] == 540:
             return max(0, struct.unpack(order + "q", head[168:176])[0] - 544)
     return 0

@@ -38,7 +38,9 @@ def load_nrrd(path, *, data_outside_folder: bool = False) -> GridImage:
     nrrd = require("nrrd", "nrrd", "Reading NRRD")
     path = str(path)
     try:
-        with open(path, "rb") as fh:
+        # pynrrd casts fields with numpy, which warns on NaN in an integer
+        # field; the checks below say what is wrong with such a header.
+        with open(path, "rb") as fh, np.errstate(invalid="ignore"):
             header = nrrd.read_header(fh)
             data_start = fh.tell()
     except FileNotFoundError:
