@@ -231,8 +231,12 @@ def check_float32_storage(data: np.ndarray) -> None:
     a = np.asarray(data)
     if a.dtype.kind != "f" or a.dtype.itemsize <= 4 or a.size == 0:
         return
-    magnitude = np.abs(a)
-    largest = float(np.max(magnitude, where=np.isfinite(magnitude), initial=0.0))
+    # Slab by slab: the temporaries stay small whatever the volume's size.
+    rows = max(1, (16 << 20) // max(1, a[0].nbytes))
+    largest = 0.0
+    for start in range(0, a.shape[0], rows):
+        slab = np.abs(a[start:start + rows])
+        largest = max(largest, float(np.max(slab, where=np.isfinite(slab), initial=0.0)))
     if largest > float(_F32.max):
         raise ValueError(f"volume values reach {largest:.3g}, past float32's largest {float(_F32.max):.3g}, which "
                          "the engines store voxels as: scale the data (and its value range) into float32's range")
