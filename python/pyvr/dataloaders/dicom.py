@@ -67,6 +67,9 @@ def load_dicom_series(path, *, series_uid: Optional[str] = None) -> GridImage:
         except AttributeError:
             return np.array([0.0, 0.0, float(getattr(ds, "InstanceNumber", 0))])
 
+    for f, ds in slices:
+        if not np.all(np.isfinite(position(ds))):
+            raise FileFormatError(f"{f}: its ImagePositionPatient {list(position(ds))} is not finite")
     slices.sort(key=lambda s: float(position(s[1]) @ normal))
     rows, cols = int(first.Rows), int(first.Columns)
     for f, ds in slices:
@@ -141,7 +144,7 @@ def _orientation(f, ds) -> np.ndarray:
         return np.array([[1, 0, 0], [0, 1, 0]], np.float64)
     except (TypeError, ValueError):
         raise FileFormatError(f"{f}: ImageOrientationPatient must be six numbers") from None
-    n = np.cross(o[0], o[1])
+    n = np.cross(o[0], o[1]) if np.all(np.isfinite(o)) else np.zeros(3)  # NaN arithmetic warns
     if not (np.all(np.isfinite(o)) and np.linalg.norm(n) > 0.5):
         raise FileFormatError(f"{f}: ImageOrientationPatient {list(o.ravel())} is not two unit directions at right angles")
     return o
