@@ -9,6 +9,7 @@ import sys
 import threading
 import time
 import warnings
+from typing import Optional
 
 import numpy as np
 
@@ -16,17 +17,25 @@ warnings.simplefilter("ignore")
 
 
 
+def _status_kib(field: str) -> Optional[int]:
+    """A memory field of /proc/self/status in KiB (None where there is none)."""
+    try:
+        with open("/proc/self/status") as f:
+            for line in f:
+                if line.startswith(field + ":"):
+                    return int(line.split()[1])
+    except OSError:
+        pass
+    return None
+
+
 def peak_rss_mib() -> float:
     """This process's peak resident memory since it started this program.
     Linux carries ru_maxrss across exec, so a child forked from a large
     test process would report its parent's size; VmHWM is this image's own."""
-    try:
-        with open("/proc/self/status") as f:
-            for line in f:
-                if line.startswith("VmHWM:"):
-                    return int(line.split()[1]) / 1024
-    except OSError:
-        pass
+    hwm = _status_kib("VmHWM")
+    if hwm is not None:
+        return hwm / 1024
     import resource
 
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
@@ -501,14 +510,6 @@ def case_interleaved_paths():
     return f"{wrong} of 6 frames wrong, camera kept: {r.get_camera() is own}"
 
 
-def _rss_kib() -> int:
-    with open("/proc/self/status") as f:
-        for line in f:
-            if line.startswith("VmRSS:"):
-                return int(line.split()[1])
-    raise RuntimeError("no VmRSS")
-
-
 def case_growth(kind, calls):
     """Resident memory per call, after a warm-up, of what the interface does
     on every drag (a transfer-function change, then a frame) or of reloads."""
@@ -534,12 +535,12 @@ def case_growth(kind, calls):
     for k in range(300):
         call(k)
     gc.collect()
-    before = _rss_kib()
+    before = _status_kib("VmRSS")
     n = int(calls)
     for k in range(n):
         call(k)
     gc.collect()
-    return f"{(_rss_kib() - before) / n:.2f} KiB per call"
+    return f"{(_status_kib('VmRSS') - before) / n:.2f} KiB per call"
 
 
 if __name__ == "__main__":
