@@ -14,13 +14,13 @@ import resource
 import shutil
 import sys
 import tempfile
-import time
-import traceback
 
 HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(HERE, "..", "tests"))  # the loader tests' DICOM writer
 sys.path.insert(0, os.path.join(HERE, "..", "tests", "hostile"))
 sys.path.insert(0, HERE)
 
+from _fuzz import fuzz  # noqa: E402
 from _report import write_table  # noqa: E402
 from dicom_fuzz import check_one, mutate, write_series  # noqa: E402
 
@@ -31,32 +31,26 @@ def main() -> int:
     ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args()
     rnd = random.Random(args.seed)
-    counts = {"ok": 0, "refused": 0}
-    start = time.time()
     with tempfile.TemporaryDirectory() as tmp:
         seed = os.path.join(tmp, "seed")
         write_series(seed)
-        while time.time() - start < args.seconds:
-            case = os.path.join(tmp, "series")
-            shutil.rmtree(case, ignore_errors=True)
+
+        def make_case(rnd, folder):
+            case = os.path.join(folder, "series")
             shutil.copytree(seed, case)
             mutate(case, rnd)
-            try:
-                counts[check_one(case)] += 1
-            except BaseException:
-                kept = os.path.join("out", "fuzz_dicom", f"failure-{sum(counts.values())}")
-                shutil.copytree(case, kept)
-                traceback.print_exc()
-                print(f"FAILED on case {sum(counts.values()) + 1}; the series is kept in {kept}")
-                return 1
-    elapsed = time.time() - start
-    total = sum(counts.values())
+            return case
+
+        counts = fuzz(args.seconds, rnd, make_case, check_one, "fuzz_dicom/failure")
+    if counts is None:
+        return 1
+    total = counts["ok"] + counts["refused"]
     peak_mib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    print(f"{total} series in {elapsed:.0f} s: {counts['ok']} loaded, {counts['refused']} refused, 0 other outcomes; "
-          f"peak RSS {peak_mib:.0f} MiB")
+    print(f"{total} series in {counts['seconds']:.0f} s: {counts['ok']} loaded, {counts['refused']} refused, "
+          f"0 other outcomes; peak RSS {peak_mib:.0f} MiB")
     write_table("fuzz_dicom", f"python benches/fuzz_dicom.py --seconds {args.seconds:g} --seed {args.seed}",
                 ["series", "loaded", "refused", "other", "seconds", "peak RSS (MiB)"],
-                [[total, counts["ok"], counts["refused"], 0, round(elapsed), round(peak_mib)]])
+                [[total, counts["ok"], counts["refused"], 0, round(counts["seconds"]), round(peak_mib)]])
     return 0
 
 

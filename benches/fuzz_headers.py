@@ -14,16 +14,13 @@ import argparse
 import os
 import random
 import resource
-import shutil
 import sys
-import tempfile
-import time
-import traceback
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "tests", "hostile"))
 sys.path.insert(0, HERE)
 
+from _fuzz import fuzz  # noqa: E402
 from _report import write_table  # noqa: E402
 from header_fuzz import FORMATS, check_one, mutate, write_case  # noqa: E402
 
@@ -38,25 +35,15 @@ def main() -> int:
     rows = []
     for fmt in sorted(FORMATS):
         seed = FORMATS[fmt][1]()
-        counts = {"ok": 0, "refused": 0}
-        start = time.time()
-        while time.time() - start < args.seconds:
-            body = mutate(seed, rnd)
-            with tempfile.TemporaryDirectory() as tmp:
-                path = write_case(tmp, fmt, body)
-                try:
-                    counts[check_one(path)] += 1
-                except BaseException:
-                    kept = os.path.join("out", "fuzz_headers", f"{fmt}-failure-{sum(counts.values())}")
-                    shutil.copytree(tmp, kept)
-                    traceback.print_exc()
-                    print(f"FAILED on {fmt} case {sum(counts.values()) + 1}; the files are kept in {kept}")
-                    return 1
-        elapsed = time.time() - start
-        total = sum(counts.values())
-        rows.append([fmt, total, counts["ok"], counts["refused"], 0, round(elapsed)])
-        print(f"{fmt}: {total} cases in {elapsed:.0f} s: {counts['ok']} read, {counts['refused']} refused, "
-              "0 other outcomes", flush=True)
+        # Bound now: the call runs before the loop moves on.
+        counts = fuzz(args.seconds, rnd, lambda rnd, folder, fmt=fmt, seed=seed: write_case(folder, fmt, mutate(seed, rnd)),
+                      check_one, f"fuzz_headers/{fmt}-failure")
+        if counts is None:
+            return 1
+        total = counts["ok"] + counts["refused"]
+        rows.append([fmt, total, counts["ok"], counts["refused"], 0, round(counts["seconds"])])
+        print(f"{fmt}: {total} cases in {counts['seconds']:.0f} s: {counts['ok']} read, {counts['refused']} "
+              "refused, 0 other outcomes", flush=True)
     peak_mib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     write_table("fuzz_headers", f"python benches/fuzz_headers.py --seconds {args.seconds:g} --seed {args.seed}",
                 ["format", "cases", "read", "refused", "other", "seconds"], rows,

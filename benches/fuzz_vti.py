@@ -12,14 +12,12 @@ import os
 import random
 import resource
 import sys
-import tempfile
-import time
-import traceback
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "tests", "hostile"))
 sys.path.insert(0, HERE)
 
+from _fuzz import fuzz  # noqa: E402
 from _report import write_table  # noqa: E402
 from vti_fuzz import check_one, mutate, seeds  # noqa: E402
 
@@ -31,27 +29,19 @@ def main() -> int:
     args = ap.parse_args()
     rnd = random.Random(args.seed)
     base = seeds()
-    counts = {"ok": 0, "refused": 0}
-    start = time.time()
-    with tempfile.TemporaryDirectory() as tmp:
-        path = os.path.join(tmp, "case.vti")
-        while time.time() - start < args.seconds:
-            data = mutate(rnd.choice(base), rnd)
-            with open(path, "wb") as f:
-                f.write(data)
-            try:
-                counts[check_one(path)] += 1
-            except Exception:
-                os.makedirs("out/fuzz_vti", exist_ok=True)
-                kept = f"out/fuzz_vti/failure-{sum(counts.values())}.vti"
-                with open(kept, "wb") as f:
-                    f.write(data)
-                traceback.print_exc()
-                print(f"FAILED on case {sum(counts.values()) + 1}; the file is kept as {kept}")
-                return 1
+
+    def make_case(rnd, folder):
+        path = os.path.join(folder, "case.vti")
+        with open(path, "wb") as f:
+            f.write(mutate(rnd.choice(base), rnd))
+        return path
+
+    counts = fuzz(args.seconds, rnd, make_case, check_one, "fuzz_vti/failure")
+    if counts is None:
+        return 1
     peak_mib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    total = sum(counts.values())
-    elapsed = time.time() - start
+    total = counts["ok"] + counts["refused"]
+    elapsed = counts["seconds"]
     print(f"{total} cases in {elapsed:.0f} s: {counts['ok']} read, {counts['refused']} refused with "
           f"FileFormatError, 0 other outcomes; peak RSS {peak_mib:.0f} MiB")
     write_table("fuzz_vti", f"python benches/fuzz_vti.py --seconds {args.seconds:g} --seed {args.seed}",

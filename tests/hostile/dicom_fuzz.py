@@ -18,35 +18,11 @@ _EXTREMES = [0, -1, 1e-30, 1e30, float("nan"), float("inf"), 65535, 2**31 - 1]
 
 
 def write_series(folder) -> None:
-    import pydicom  # noqa: F401  (the test skips without it)
-    from pydicom.dataset import FileDataset, FileMetaDataset
-    from pydicom.uid import ExplicitVRLittleEndian, generate_uid
+    """The seed: a four-slice CT series of SHAPE, in slice order, by the
+    loader tests' writer."""
+    from test_loaders import write_dicom_series
 
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
-    series = generate_uid()
-    data = np.arange(np.prod(SHAPE), dtype=np.uint16).reshape(SHAPE)
-    for k in range(SHAPE[2]):
-        meta = FileMetaDataset()
-        meta.MediaStorageSOPClassUID = "1.2.840.10008.5.1.4.1.1.2"
-        meta.MediaStorageSOPInstanceUID = generate_uid()
-        meta.TransferSyntaxUID = ExplicitVRLittleEndian
-        ds = FileDataset(str(folder / f"s{k}.dcm"), {}, file_meta=meta, preamble=b"\0" * 128)
-        ds.Modality = "CT"
-        ds.SeriesInstanceUID = series
-        ds.SOPInstanceUID = meta.MediaStorageSOPInstanceUID
-        ds.Rows, ds.Columns = SHAPE[1], SHAPE[0]
-        ds.PixelSpacing = [0.5, 0.5]
-        ds.ImageOrientationPatient = [1, 0, 0, 0, 1, 0]
-        ds.ImagePositionPatient = [0.0, 0.0, 2.0 * k]
-        ds.SliceThickness = 2.0
-        ds.RescaleSlope, ds.RescaleIntercept = 1.0, -1024.0
-        ds.BitsAllocated, ds.BitsStored, ds.HighBit = 16, 16, 15
-        ds.PixelRepresentation = 0
-        ds.SamplesPerPixel = 1
-        ds.PhotometricInterpretation = "MONOCHROME2"
-        ds.PixelData = np.ascontiguousarray(data[:, :, k].T).tobytes()
-        ds.save_as(str(folder / f"s{k}.dcm"), enforce_file_format=True)
+    write_dicom_series(Path(folder), np.arange(np.prod(SHAPE), dtype=np.uint16).reshape(SHAPE), shuffle=False)
 
 
 def mutate(folder, rnd: random.Random) -> None:

@@ -14,13 +14,14 @@ pytest.importorskip("pydicom")
 
 from dicom_fuzz import SHAPE, check_one, mutate, write_series  # noqa: E402
 from pyvr.dataloaders import load_dicom_series  # noqa: E402
+from test_loaders import SPACING  # noqa: E402
 
 
 def test_the_seed_series_loads(tmp_path):
     write_series(tmp_path / "series")
     image = load_dicom_series(tmp_path / "series")
     assert image.data.shape == SHAPE
-    assert np.allclose(image.spacing, (0.5, 0.5, 2.0))
+    assert np.allclose(image.spacing, SPACING)
 
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
