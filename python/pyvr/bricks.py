@@ -77,13 +77,32 @@ def read_block(data: Any, ranges: Sequence[Sequence[int]]) -> np.ndarray:
             return direct
     if isinstance(data, np.memmap):
         _check_mapped_file(data)
-    block = data[sl]
-    if mod == "dask":
-        block = block.compute()
+    try:
+        block = data[sl]
+        if mod == "dask":
+            block = block.compute()
+    except (OSError, MemoryError):
+        raise
+    except Exception as e:
+        # A corrupt chunk of a zarr store, a failing dask task: the
+        # library's error, with what was being read and from where.
+        from .dataloaders.image import FileFormatError
+
+        raise FileFormatError(f"reading voxels {[tuple(map(int, r)) for r in ranges]} of {_source(data)} failed "
+                              f"({type(e).__name__}: {e})") from e
     if isinstance(data, np.memmap):
         block = np.array(block)
         _release_pages(data)
     return np.asarray(block)
+
+
+def _source(data: Any) -> str:
+    """Where an array not in memory reads from, as far as it says."""
+    for attr in ("filename", "store", "name"):
+        value = getattr(data, attr, None)
+        if value:
+            return f"{type(data).__name__} {value}"
+    return type(data).__name__
 
 
 def _check_mapped_file(mm: np.memmap) -> None:

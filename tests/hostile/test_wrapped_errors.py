@@ -80,3 +80,25 @@ def test_a_huge_nifti_header_extension_is_refused_before_it_is_read(tmp_path):
     # Widened, the same file loads.
     vol = pyvr.load(path, max_extension_bytes=128 << 20)
     assert vol.shape == DATA.shape
+
+
+def test_a_zarr_chunk_corrupted_after_loading_names_the_store_at_render(tmp_path):
+    # Read brick by brick, a bad chunk surfaced at render time as numcodecs'
+    # bare RuntimeError.
+    zarr = pytest.importorskip("zarr")
+    from pyvr import VolumeRenderer
+    from pyvr.volume import Volume
+
+    store = tmp_path / "c.zarr"
+    z = zarr.open(str(store), mode="w", shape=(48, 40, 36), chunks=(16, 16, 16), dtype="f4")
+    z[:] = np.random.default_rng(0).random((48, 40, 36), np.float32)
+    r = VolumeRenderer(32, 32, brick_shape=(16, 16, 16), memory_budget=1 << 18)
+    r.load_volume(Volume(zarr.open(str(store), mode="r")))
+    assert r.render()[..., 3].max() > 0 and not r.bricks["resident"]
+    for f in glob.glob(f"{store}/**", recursive=True):
+        if os.path.isfile(f) and not os.path.basename(f).startswith(".") and not f.endswith(".json"):
+            with open(f, "wb") as out:
+                out.write(b"\x00garbage" * 3)
+    with pytest.raises(FileFormatError, match=r"reading voxels .* of Array .*c\.zarr.* failed \(RuntimeError: ") as info:
+        r.render()
+    assert isinstance(info.value.__cause__, RuntimeError)
