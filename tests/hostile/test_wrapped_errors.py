@@ -102,3 +102,15 @@ def test_a_zarr_chunk_corrupted_after_loading_names_the_store_at_render(tmp_path
     with pytest.raises(FileFormatError, match=r"reading voxels .* of Array .*c\.zarr.* failed \(RuntimeError: ") as info:
         r.render()
     assert isinstance(info.value.__cause__, RuntimeError)
+
+
+def test_a_corrupt_gzip_nifti_names_the_file_through_load_nifti_too(tmp_path):
+    # The extension-size check read the gzip stream before nibabel did, and
+    # zlib.error escaped load_nifti (pyvr.load wrapped it).
+    pytest.importorskip("nibabel")
+    from pyvr.dataloaders import load_nifti
+
+    path = tmp_path / "bad.nii.gz"
+    path.write_bytes(b"\x1f\x8b\x08\x00\x00\x00\x00\x00\x00\x03garbage-not-deflate")
+    with pytest.raises(FileFormatError, match=r"bad\.nii\.gz: not a readable NIfTI file"):
+        load_nifti(path)

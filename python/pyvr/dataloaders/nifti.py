@@ -44,8 +44,8 @@ def _extension_bytes(path) -> int:
     try:
         with opener(path, "rb") as f:
             head = f.read(540)
-    except (OSError, EOFError):
-        return 0  # nibabel reports what is wrong with such a file
+    except Exception:  # OSError, EOFError, zlib.error: nibabel reports what is wrong with such a file
+        return 0
     for order in ("<", ">"):
         if len(head) >= 112 and struct.unpack(order + "i", head[:4])[0] == 348:
             offset = struct.unpack(order + "f", head[108:112])[0]
