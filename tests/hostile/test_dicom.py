@@ -106,3 +106,22 @@ def test_a_rescale_past_float32(tmp_path):
     with pytest.raises(FileFormatError, match="beyond float32's range"):
         load_dicom_series(folder)
 
+
+
+# Found by the fuzzer: a NaN position went through numpy's arithmetic
+# (its "invalid value" warnings) and was refused naming no slice.
+@pytest.mark.filterwarnings("ignore:Invalid value for VR DS", "error::RuntimeWarning")
+@pytest.mark.parametrize(("field", "value", "message"), [
+    ("ImagePositionPatient", ["NaN", 0, 0], r"s2\.dcm: its ImagePositionPatient .* is not finite"),
+    ("ImageOrientationPatient", [1, 0, 0, 0, "NaN", 0], r"s2\.dcm: ImageOrientationPatient .* not two unit directions"),
+])
+def test_geometry_that_is_not_finite(tmp_path, field, value, message):
+    folder = series(tmp_path)
+    mode = pydicom.config.settings.writing_validation_mode
+    pydicom.config.settings.writing_validation_mode = pydicom.config.IGNORE
+    try:
+        edit(folder, "s2.dcm", **{field: value})
+    finally:
+        pydicom.config.settings.writing_validation_mode = mode
+    with pytest.raises(FileFormatError, match=message):
+        load_dicom_series(folder)
