@@ -8,8 +8,10 @@
 #   tools/tests_against.sh REV [pytest arguments]
 #   tools/tests_against.sh a44ac90 tests/hostile -q
 #
-# Needs .venv (scripts/setup.sh) and cargo. The build shares ./target's
-# release folder, so dependencies compile once.
+# Needs .venv (scripts/setup.sh) and cargo. The build has its own target
+# folder, target/against, kept between runs so dependencies compile once
+# (a folder shared with this checkout's builds would hand them REV's
+# library: cargo finds its own artifacts fresh and does not copy them out).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 if [ $# -lt 1 ]; then
@@ -28,7 +30,7 @@ trap cleanup EXIT
 
 git worktree add --detach -q "$work/src" "$rev"
 echo "== building pyvr at ${rev:0:12} (release)"
-CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$here/target}" \
+CARGO_TARGET_DIR="$here/target/against" \
     .venv-build/bin/maturin build --release -q -m "$work/src/Cargo.toml" --out "$work/dist" >/dev/null
 .venv/bin/python -m pip install -q --disable-pip-version-check --no-deps --target "$work/site" "$work"/dist/*.whl
 
