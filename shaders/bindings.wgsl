@@ -79,7 +79,10 @@ struct Params {
     // The value map's scale is value_prescale * value_scale, each normal in
     // f32 where it can be (GPUs flush subnormals; src/plan/params.rs split_scale).
     value_prescale: f32,
-    tile_pad: u32,
+    // Rays march where n . p + c >= 0 for the first clip_count planes
+    // (n, c) (src/plan/params.rs plane_in_block).
+    clip_count: u32,
+    clip_planes: array<vec4<f32>, MAX_CLIP_PLANES>,
 };
 
 @group(0) @binding(BINDING_PARAMS) var<uniform> P: Params;

@@ -37,7 +37,7 @@ fn phase_4pi(cos_theta: f32) -> f32 {
     return (1.0 - g * g) / (denom * sqrt(denom));
 }
 
-// Light reaching p through the (cropped) volume along the shadow ray (midpoint rule,
+// Light reaching p through the (cropped, clipped) volume along the shadow ray (midpoint rule,
 // shadow step, stopping once its optical depth passes SHADOW_TAU_MAX). Adds the samples
 // it took to `taken`.
 fn light_transmittance(p: vec3<f32>, taken: ptr<function, u32>) -> f32 {
@@ -53,6 +53,15 @@ fn light_transmittance(p: vec3<f32>, taken: ptr<function, u32>) -> f32 {
             exit = min(exit, (P.clip_hi[a] - p[a]) / to_light[a]);
         } else if (to_light[a] < 0.0) {
             exit = min(exit, (P.clip_lo[a] - p[a]) / to_light[a]);
+        }
+    }
+    // p is on every plane's kept side: the ray leaves a plane's where n
+    // points away from the light.
+    for (var k = 0u; k < P.clip_count; k++) {
+        let q = P.clip_planes[k];
+        let slope = dot(q.xyz, to_light);
+        if (slope < 0.0) {
+            exit = min(exit, -(dot(q.xyz, p) + q.w) / slope);
         }
     }
     let len = max(min(exit, reach), 0.0);

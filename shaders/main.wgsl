@@ -1,5 +1,5 @@
 // Entry point: one invocation per pixel builds its ray, clips it to the
-// (cropped) box and runs the model's march. The marching rule is the one in
+// (cropped) box and the clip planes and runs the model's march. The marching rule is the one in
 // src/integrate.rs (the f64 oracle): the chord through the box is cut into
 // step-long segments (the last one shorter, and with jitter the first one
 // too), each sampled at its midpoint and weighted by its own length.
@@ -43,6 +43,19 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
             let tb = (P.clip_hi[a] - o[a]) * inv;
             t0 = max(t0, min(ta, tb));
             t1 = min(t1, max(ta, tb));
+        }
+    }
+    // Clip planes: along the ray n . p + c is f0 + t (n . d).
+    for (var k = 0u; k < P.clip_count; k++) {
+        let q = P.clip_planes[k];
+        let f0 = dot(q.xyz, o) + q.w;
+        let slope = dot(q.xyz, d);
+        if (slope > 0.0) {
+            t0 = max(t0, -f0 / slope);
+        } else if (slope < 0.0) {
+            t1 = min(t1, -f0 / slope);
+        } else if (f0 < 0.0) {
+            hit = false;
         }
     }
     var r: Ray;

@@ -5,6 +5,53 @@
 use crate::error::Error;
 use glam::DVec3;
 
+/// A half-space rays march in: the points x with `normal · (x - point) >= 0`
+/// (the normal points into the part that is kept). Rays and shadow rays
+/// march only where every plane and the (cropped) box agree.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ClipPlane {
+    pub point: DVec3,
+    /// Unit length.
+    pub normal: DVec3,
+}
+
+impl ClipPlane {
+    pub fn new(point: DVec3, normal: DVec3) -> Result<Self, Error> {
+        if !point.is_finite() || !normal.is_finite() {
+            return Err(Error::InvalidInput("a clip plane's point and normal must be finite".into()));
+        }
+        // Scaled by its largest component first: a normal of 1e-300 or 1e300
+        // has a direction even where its squared length does not.
+        let largest = normal.abs().max_element();
+        if largest == 0.0 {
+            return Err(Error::InvalidInput("a clip plane's normal must not be zero".into()));
+        }
+        Ok(ClipPlane { point, normal: (normal / largest).normalize() })
+    }
+
+    /// Signed distance of `p` from the plane, positive on the kept side.
+    pub fn side(&self, p: DVec3) -> f64 {
+        self.normal.dot(p - self.point)
+    }
+
+    /// The part of `[t0, t1]` of the ray `origin + t dir` on the kept side,
+    /// or None where no part of it is (a ray along the plane is kept whole
+    /// when it starts on the kept side or in the plane).
+    pub fn cut(&self, origin: DVec3, dir: DVec3, (t0, t1): (f64, f64)) -> Option<(f64, f64)> {
+        let (f0, slope) = (self.side(origin), self.normal.dot(dir));
+        let (t0, t1) = if slope > 0.0 {
+            (t0.max(-f0 / slope), t1)
+        } else if slope < 0.0 {
+            (t0, t1.min(-f0 / slope))
+        } else if f0 < 0.0 {
+            return None;
+        } else {
+            (t0, t1)
+        };
+        (t0 <= t1).then_some((t0, t1))
+    }
+}
+
 /// The axis-aligned box the volume fills.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Bounds {
@@ -244,6 +291,28 @@ impl Shading {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn clip_planes_cut_rays_to_their_kept_side() {
+        let plane = ClipPlane::new(DVec3::new(0.25, 0.0, 0.0), DVec3::new(-2.0, 0.0, 0.0)).unwrap();
+        assert_eq!(plane.normal, DVec3::new(-1.0, 0.0, 0.0));
+        // Along +x from x = -1: kept up to x = 0.25; along -x kept from there on.
+        let (o, x) = (DVec3::new(-1.0, 0.0, 0.0), DVec3::X);
+        assert_eq!(plane.cut(o, x, (0.5, 3.0)), Some((0.5, 1.25)));
+        assert_eq!(plane.cut(DVec3::new(1.0, 0.0, 0.0), -x, (0.0, 3.0)), Some((0.75, 3.0)));
+        // Beyond the span, and rays along the plane: on its kept side, on it, past it.
+        assert_eq!(plane.cut(o, x, (1.5, 3.0)), None);
+        assert_eq!(plane.cut(o, DVec3::Y, (0.0, 2.0)), Some((0.0, 2.0)));
+        assert_eq!(plane.cut(DVec3::new(0.25, 0.0, 0.0), DVec3::Y, (0.0, 2.0)), Some((0.0, 2.0)));
+        assert_eq!(plane.cut(DVec3::new(0.5, 0.0, 0.0), DVec3::Y, (0.0, 2.0)), None);
+        // Normals of any magnitude have their direction; zero and NaN have none.
+        for scale in [1e-300, 1e300] {
+            let n = ClipPlane::new(DVec3::ZERO, DVec3::new(3.0, 0.0, 4.0) * scale).unwrap().normal;
+            assert!((n - DVec3::new(0.6, 0.0, 0.8)).length() < 1e-15, "{scale}: {n}");
+        }
+        assert!(ClipPlane::new(DVec3::ZERO, DVec3::ZERO).is_err());
+        assert!(ClipPlane::new(DVec3::new(f64::NAN, 0.0, 0.0), DVec3::X).is_err());
+    }
 
     #[test]
     fn front_view_basis() {

@@ -82,6 +82,7 @@ fn base_frame<'a>(vol: VolumeView<'a>, lut: &'a [[f32; 4]]) -> Frame<'a> {
         adaptive_tolerance: 0.0,
         value_map: ValueMap::IDENTITY,
         clip: None,
+        planes: &[],
         slopes: None,
     }
 }

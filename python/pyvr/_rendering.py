@@ -235,7 +235,8 @@ class FrameRendering:
             img, _, depth = _core.integrate_reference(
                 prepare_voxels(self.volume.data), prepare_normals(self.volume.normals), *self._bounds, self._lut,
                 camera, self._light_args, cfg, width, height, order, float(adaptive_tolerance),
-                self._value_map, self._crop, None if bar is None else (lambda rows: bar.update(rows - bar.n)),
+                self._value_map, self._crop, list(self._planes),
+                None if bar is None else (lambda rows: bar.update(rows - bar.n)),
             )
             if bar is not None:
                 bar.update(height - bar.n)

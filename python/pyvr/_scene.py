@@ -26,6 +26,49 @@ def _finite_vec(name, v):
     return (float(a[0]), float(a[1]), float(a[2]))
 
 
+MAX_CLIP_PLANES = 16
+
+
+def _clip_planes(planes) -> tuple:
+    """Clip planes as ((point), (unit normal)) pairs of floats, checked: a
+    sequence of (point, normal) pairs, an (N, 2, 3) array, or one pair."""
+    if planes is None:
+        return ()
+    what = "planes must be (point, normal) pairs of three numbers each, or an (N, 2, 3) array"
+    try:
+        raw = np.asarray(planes, dtype=object)
+    except (TypeError, ValueError):
+        raise TypeError(f"{what}, got {planes!r}") from None
+    if raw.size > 6 * 1024:  # before looking at each number
+        raise ValueError(f"at most {MAX_CLIP_PLANES} clip planes, got an array of shape {raw.shape}")
+    # Bools and complex numbers are not coordinates (numpy would take them).
+    if any(isinstance(x, (bool, np.bool_, complex, np.complexfloating)) for x in raw.reshape(-1)):
+        raise TypeError(f"{what}, got {planes!r}")
+    try:
+        a = raw.astype(np.float64)
+    except (TypeError, ValueError):
+        raise TypeError(f"{what}, got {planes!r}") from None
+    if a.size == 0:
+        return ()
+    if a.shape == (2, 3):
+        a = a[None]
+    if a.ndim != 3 or a.shape[1:] != (2, 3):
+        raise ValueError(f"{what}, got shape {a.shape}")
+    if len(a) > MAX_CLIP_PLANES:
+        raise ValueError(f"at most {MAX_CLIP_PLANES} clip planes, got {len(a)}")
+    out = []
+    for k, (point, normal) in enumerate(a):
+        if not np.all(np.isfinite(a[k])):
+            raise ValueError(f"clip plane {k}: point and normal must be finite, got {point.tolist()}, {normal.tolist()}")
+        largest = np.abs(normal).max()
+        if largest == 0:
+            raise ValueError(f"clip plane {k}: the normal must not be zero")
+        unit = normal / largest
+        unit /= np.linalg.norm(unit)
+        out.append((tuple(float(x) for x in point), tuple(float(x) for x in unit)))
+    return tuple(out)
+
+
 def _runtime_dir() -> None:
     """Mesa's Vulkan loader probes for a display and prints "error:
     XDG_RUNTIME_DIR is invalid or not set" on the first device when that

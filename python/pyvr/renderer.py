@@ -19,7 +19,7 @@ from . import _core
 from ._loading import VolumeLoading
 from ._numbers import check_count
 from ._rendering import FrameRendering
-from ._scene import _camera_tuple, _finite_vec, _light_tuple, _runtime_dir, _table_of
+from ._scene import _camera_tuple, _clip_planes, _finite_vec, _light_tuple, _runtime_dir, _table_of
 from ._storage import _value_map_for, device_limits, prepare_normals, prepare_voxels
 from ._threads import _RENDERERS, _serialised
 from .camera import Camera
@@ -102,6 +102,7 @@ class VolumeRenderer(VolumeLoading, FrameRendering):
         self._tf_value_range = None
         self._value_map = (1.0, 0.0)
         self._crop = None
+        self._planes = ()
         self._brick_shape = brick_shape
         self._memory_budget = memory_budget
         self._bricked = None
@@ -132,6 +133,7 @@ class VolumeRenderer(VolumeLoading, FrameRendering):
             engine.set_lut(self._lut)
         engine.set_value_map(*self._value_map)
         engine.set_clip(self._crop)
+        engine.set_clip_planes(list(self._planes))
         # The parent's engine is leaked by the core, never freed here.
         self._engine_obj, self._engine_pid = engine, os.getpid()
         self._gradients_tried = False
@@ -251,6 +253,28 @@ class VolumeRenderer(VolumeLoading, FrameRendering):
     def crop_box(self) -> Optional[tuple]:
         """((x, y, z), (x, y, z)) set by set_crop_box, or None."""
         return self._crop
+
+    @_serialised
+    def set_clip_planes(self, planes=None) -> None:
+        """Render only the part of the volume on the kept side of every plane.
+
+        ``planes`` is a sequence of ``(point, normal)`` pairs (or an array of
+        shape (N, 2, 3)) in world coordinates; a plane keeps the points ``x``
+        with ``normal · (x - point) >= 0``: its normal points into the part
+        that stays. Camera rays and shadow rays march only where every plane
+        and the crop box (:meth:`set_crop_box`) keep, and the segment a plane
+        cuts counts with its length, as at the box's faces. At most
+        ``MAX_CLIP_PLANES`` (16) planes; None or ``[]`` removes them. Nothing
+        is copied or uploaded.
+        """
+        self._planes = _clip_planes(planes)
+        self._engine.set_clip_planes(list(self._planes))
+
+    @property
+    def clip_planes(self) -> tuple:
+        """The ``((point), (normal))`` pairs set by set_clip_planes (normals
+        of unit length), or ``()``."""
+        return self._planes
 
     @_serialised
     def set_config(self, config: RenderConfig) -> None:

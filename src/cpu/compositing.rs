@@ -286,6 +286,15 @@ pub unsafe fn march<T: Texels>(
             let t = _mm256_div_ps(_mm256_sub_ps(wall, pos[k]), to_light[k]);
             exit = _mm256_min_ps(exit, _mm256_blendv_ps(set(3.0e38), t, _mm256_or_ps(ahead, behind)));
         }
+        // Clip planes (lighting.wgsl): the shadow ray leaves a plane's kept
+        // side where its normal points away from the light.
+        for q in &p.clip_planes[..p.clip_count as usize] {
+            let slope = dot3(&[set(q[0]), set(q[1]), set(q[2])], &to_light);
+            let f = _mm256_add_ps(dot3(&[set(q[0]), set(q[1]), set(q[2])], &pos), set(q[3]));
+            let t = _mm256_div_ps(_mm256_sub_ps(zero, f), slope);
+            let away = _mm256_cmp_ps::<_CMP_LT_OQ>(slope, zero);
+            exit = _mm256_blendv_ps(exit, _mm256_min_ps(exit, t), away);
+        }
         let len = _mm256_max_ps(_mm256_min_ps(exit, reach), zero);
         let hs = set(p.shadow_step);
         // Counted in integers, as the shader's u32 (an f32 count stops

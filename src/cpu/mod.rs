@@ -411,7 +411,7 @@ fn set_flush_to_zero() {
 pub const MAX_STEPS: u32 = 1 << 30;
 
 /// One pixel's ray as main.wgsl builds it: its chord through the (cropped)
-/// box, segment grid and step count, and the window of segments whose
+/// box and clip planes, segment grid and step count, and the window of segments whose
 /// midpoints (pre-integrated: any of whose points) may lie in occupied cells
 /// (skipping.wgsl `occupied_window`).
 /// The march builds eight at a time (`rays8`), held to this statement of
@@ -453,6 +453,17 @@ impl Ray {
                 let (ta, tb) = ((p.clip_lo[a] - o[a]) * inv, (p.clip_hi[a] - o[a]) * inv);
                 t0 = t0.max(ta.min(tb));
                 t1 = t1.min(ta.max(tb));
+            }
+        }
+        for q in &p.clip_planes[..p.clip_count as usize] {
+            let f0 = q[0] * o[0] + q[1] * o[1] + q[2] * o[2] + q[3];
+            let slope = q[0] * d[0] + q[1] * d[1] + q[2] * d[2];
+            if slope > 0.0 {
+                t0 = t0.max(-f0 / slope);
+            } else if slope < 0.0 {
+                t1 = t1.min(-f0 / slope);
+            } else if f0 < 0.0 {
+                return None;
             }
         }
         if t0 > t1 || t1 <= 0.0 {

@@ -89,6 +89,22 @@ pub unsafe fn rays(frame: &Frame, col0: u32, row: u32) -> Rays {
         t0 = _mm256_blendv_ps(_mm256_max_ps(_mm256_min_ps(ta, tb), t0), t0, flat);
         t1 = _mm256_blendv_ps(_mm256_min_ps(_mm256_max_ps(ta, tb), t1), t1, flat);
     }
+    // Clip planes (main.wgsl): along the ray n . p + c is f0 + t (n . d).
+    for q in &p.clip_planes[..p.clip_count as usize] {
+        let f0 = set(q[0] * p.cam_pos[0] + q[1] * p.cam_pos[1] + q[2] * p.cam_pos[2] + q[3]);
+        let slope = _mm256_add_ps(
+            _mm256_add_ps(_mm256_mul_ps(set(q[0]), d[0]), _mm256_mul_ps(set(q[1]), d[1])),
+            _mm256_mul_ps(set(q[2]), d[2]),
+        );
+        let at = _mm256_div_ps(_mm256_xor_ps(f0, set(-0.0)), slope);
+        let rising = _mm256_cmp_ps::<_CMP_GT_OQ>(slope, zero);
+        let falling = _mm256_cmp_ps::<_CMP_LT_OQ>(slope, zero);
+        t0 = _mm256_blendv_ps(t0, _mm256_max_ps(t0, at), rising);
+        t1 = _mm256_blendv_ps(t1, _mm256_min_ps(t1, at), falling);
+        let along = _mm256_cmp_ps::<_CMP_EQ_OQ>(slope, zero);
+        let outside = _mm256_cmp_ps::<_CMP_LT_OQ>(f0, zero);
+        hit = _mm256_andnot_ps(_mm256_and_ps(along, outside), hit);
+    }
     let misses = _mm256_or_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(t0, t1), _mm256_cmp_ps::<_CMP_LE_OQ>(t1, zero));
     hit = _mm256_andnot_ps(misses, hit);
     // (max with the second operand 0 also reads NaN as 0, as f32::max does.)
@@ -245,8 +261,9 @@ mod tests {
 
     /// Every lane equals the scalar rule's ray bit for bit, over cameras
     /// outside, inside and grazing the box, an axis-aligned one whose middle
-    /// column's rays are parallel to two faces, crops, jitter, truncation,
-    /// occupied windows and bricks' windows.
+    /// column's rays are parallel to two faces, crops, clip planes (one
+    /// along some rays), jitter, truncation, occupied windows and bricks'
+    /// windows.
     #[test]
     fn lanes_are_the_scalar_rays() {
         if !crate::cpu::avx2_available() {
@@ -280,6 +297,14 @@ mod tests {
             let crop = case % 5 == 0;
             p.clip_lo = v4(std::array::from_fn(|a| if crop { 0.2 * ext[a] } else { 0.0 }));
             p.clip_hi = v4(std::array::from_fn(|a| if crop { 0.9 * ext[a] } else { ext[a] }));
+            // Clip planes: oblique ones through the box, and for the
+            // axis-aligned camera one its middle column's rays run along.
+            if case % 4 == 1 || case % 3 == 2 {
+                let n = glam::Vec3::new(pick(&mut k, -1.0, 1.0), pick(&mut k, -1.0, 1.0), 0.5).normalize();
+                p.clip_planes[0] = [n.x, n.y, n.z, -n.dot(glam::Vec3::from(target))];
+                p.clip_planes[1] = if case % 3 == 2 { [1.0, 0.0, 0.0, -0.5] } else { [-n.y, n.x, 0.2, 0.1] };
+                p.clip_count = 2;
+            }
             p.tex_scale = v4(ext.map(|e| 1.0 / e));
             // Occupied voxels in texture axis order.
             p.occupied_lo = [1.5, 0.5, 2.0, 0.0];

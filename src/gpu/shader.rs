@@ -7,7 +7,7 @@ use super::bindings;
 use crate::integrate::SHADOW_TAU_MAX;
 use crate::model::Model;
 use crate::occupancy::{BLOCK, UNIFORM_FLAG};
-use crate::plan::{ISO_BISECTIONS, PROJECTION_REACH};
+use crate::plan::{ISO_BISECTIONS, MAX_CLIP_PLANES, PROJECTION_REACH};
 use crate::preintegrate;
 use crate::scene::Shading;
 use std::fmt::Write;
@@ -54,6 +54,8 @@ pub fn prelude() -> String {
     let _ = writeln!(s, "const REFINE_EPS: f32 = {:?};", preintegrate::REFINE_OPACITY_CHANGE as f32);
     let _ = writeln!(s, "// Bisections that bracket an isosurface crossing.");
     let _ = writeln!(s, "const ISO_BISECTIONS: u32 = {ISO_BISECTIONS}u;");
+    let _ = writeln!(s, "// Clip planes the uniform block holds.");
+    let _ = writeln!(s, "const MAX_CLIP_PLANES: u32 = {MAX_CLIP_PLANES}u;");
     for (name, index) in bindings::ALL {
         let _ = writeln!(s, "const BINDING_{name}: u32 = {index}u;");
     }

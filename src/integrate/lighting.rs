@@ -1,7 +1,7 @@
 //! Light at a point: shadow rays and surface shading.
 
 use super::optics::{extinction, SHADOW_TAU_MAX};
-use super::{marched_box, segments_needed, value, Frame};
+use super::{chord, segments_needed, value, Frame};
 use crate::model::{phase_4pi, Model};
 use crate::scene::Shading;
 use crate::transfer::eval_lut;
@@ -9,7 +9,8 @@ use glam::DVec3;
 
 /// Light that reaches `p` from the light source through the volume:
 /// `exp(-∫ σ ds / ref)` along the shadow ray, midpoint rule with the
-/// shadow step, up to the (cropped) box exit (or the point light, if nearer).
+/// shadow step, up to where it leaves the (cropped, clipped) box, or at the
+/// point light if nearer.
 pub fn light_transmittance(frame: &Frame, p: DVec3) -> f64 {
     let light = &frame.light;
     let Some(travel) = light.direction_at(p) else {
@@ -20,7 +21,7 @@ pub fn light_transmittance(frame: &Frame, p: DVec3) -> f64 {
     if light.kind == crate::scene::LightKind::Point {
         reach = (light.position - p).length();
     }
-    let Some((_, exit)) = marched_box(frame).and_then(|b| b.intersect(p, to_light)) else {
+    let Some((_, exit)) = chord(frame, p, to_light) else {
         return 1.0;
     };
     let len = exit.min(reach);

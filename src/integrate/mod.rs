@@ -13,7 +13,7 @@ use crate::config::RenderConfig;
 use crate::error::{try_vec, Error};
 use crate::model::jitter_shift;
 pub use crate::model::Order;
-use crate::scene::Bounds;
+use crate::scene::{Bounds, ClipPlane};
 use crate::scene::{Camera, Light};
 use crate::transfer::ValueMap;
 use crate::volume::VolumeView;
@@ -40,6 +40,8 @@ pub struct Frame<'a> {
     pub value_map: ValueMap,
     /// Rays march only inside this box (a crop of the volume's), if given.
     pub clip: Option<Bounds>,
+    /// ... and only on the kept side of each of these planes.
+    pub planes: &'a [ClipPlane],
     /// The largest difference between neighbouring voxels along each numpy
     /// axis ([`voxel_slopes`]), which refined pre-integrated segments need;
     /// None: measured per frame (or per ray by `integrate_ray`) when needed.
@@ -138,7 +140,7 @@ struct Ray {
 
 impl Ray {
     fn new(frame: &Frame, origin: DVec3, dir: DVec3, shift: f64) -> Option<Ray> {
-        let (t0, t1) = marched_box(frame)?.intersect(origin, dir)?;
+        let (t0, t1) = chord(frame, origin, dir)?;
         let needed = segments_needed(t1 - t0, frame.config.step_size, shift);
         let n = needed.min(frame.config.max_steps.max(0) as u64);
         Some(Ray { origin, dir, t0, t1, shift, n, needed })
@@ -175,6 +177,13 @@ fn marched_box(frame: &Frame) -> Option<Bounds> {
         Some(c) => frame.volume.bounds.intersection(&c),
         None => Some(frame.volume.bounds),
     }
+}
+
+/// The part of the ray `origin + t dir` (t >= 0) that marches: inside the
+/// marched box and on the kept side of every clip plane; None if none.
+fn chord(frame: &Frame, origin: DVec3, dir: DVec3) -> Option<(f64, f64)> {
+    let inside = marched_box(frame)?.intersect(origin, dir)?;
+    frame.planes.iter().try_fold(inside, |span, plane| plane.cut(origin, dir, span))
 }
 
 /// The value the transfer function sees at `p` (gradients use the raw field:

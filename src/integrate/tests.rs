@@ -23,6 +23,7 @@ fn ambient_frame<'a>(volume: VolumeView<'a>, lut: &'a [[f32; 4]], cfg: RenderCon
         adaptive_tolerance: 0.0,
         value_map: ValueMap::IDENTITY,
         clip: None,
+        planes: &[],
         slopes: None,
     }
 }

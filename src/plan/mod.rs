@@ -5,7 +5,7 @@
 
 pub mod params;
 
-pub use params::{world_unit, FrameInputs, Params};
+pub use params::{world_unit, FrameInputs, Params, MAX_CLIP_PLANES};
 
 /// Bisection steps that place an isosurface hit between two samples (to
 /// 1/256 of their distance, then a secant step). The oracle bisects to

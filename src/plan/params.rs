@@ -9,7 +9,7 @@ use crate::bricks::BrickGrid;
 use crate::config::RenderConfig;
 use crate::occupancy::BLOCK;
 use crate::preintegrate;
-use crate::scene::{Bounds, Light, LightKind, RayBasis};
+use crate::scene::{Bounds, ClipPlane, Light, LightKind, RayBasis};
 use crate::transfer::ValueMap;
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
@@ -110,16 +110,24 @@ uniform_block! {
         /// of two apart where the scale alone would be subnormal or overflow
         /// in f32 (GPUs flush subnormals to zero; `split_scale`).
         pub value_prescale: f32,
-        pub tile_pad: u32,
+        /// Planes in use, the first `clip_count` of `clip_planes`.
+        pub clip_count: u32,
+        /// Clip planes as (n, c): rays march where `n · p + c >= 0` (p in
+        /// this block's frame, n unit).
+        pub clip_planes: [[f32; 4]; MAX_CLIP_PLANES],
     }
 }
+
+/// The most clip planes a frame takes. Each camera ray and each shadow ray
+/// tests every plane once, never per sample.
+pub const MAX_CLIP_PLANES: usize = 16;
 
 fn v4(v: DVec3) -> [f32; 4] {
     [finite_f32(v.x), finite_f32(v.y), finite_f32(v.z), 0.0]
 }
 
 /// What a frame's block is made of besides the camera, light and config.
-pub struct FrameInputs {
+pub struct FrameInputs<'a> {
     pub bounds: Bounds,
     pub dims: [usize; 3],
     pub width: u32,
@@ -128,8 +136,19 @@ pub struct FrameInputs {
     pub value_map: ValueMap,
     /// Crop box in world coordinates (None: the whole volume).
     pub clip: Option<Bounds>,
+    /// Clip planes in world coordinates (at most `MAX_CLIP_PLANES`; the
+    /// renderer refuses more).
+    pub planes: &'a [ClipPlane],
     /// The transfer function's largest extinction per reference step.
     pub max_extinction: f64,
+}
+
+/// A world plane in the block's frame (positions `(x - b.min) s`): since
+/// `n · (x - point) = (n · p + s n · (b.min - point)) / s`, the normal stays
+/// and the offset is `s n · (b.min - point)`.
+fn plane_in_block(q: &ClipPlane, b: &Bounds, s: f64) -> [f32; 4] {
+    let n = q.normal;
+    [n.x as f32, n.y as f32, n.z as f32, finite_f32(s * n.dot(b.min - q.point))]
 }
 
 /// World length of one shader length unit for a volume in `bounds`: its
@@ -217,7 +236,8 @@ impl Params {
             tile_x: 0,
             tile_y: 0,
             value_prescale,
-            tile_pad: 0,
+            clip_count: f.planes.len().min(MAX_CLIP_PLANES) as u32,
+            clip_planes: std::array::from_fn(|k| f.planes.get(k).map_or([0.0; 4], |q| plane_in_block(q, &b, s))),
         }
     }
 

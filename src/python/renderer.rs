@@ -10,7 +10,7 @@ use crate::error::{try_collect, try_zeroed};
 use crate::integrate::{self, Frame};
 use crate::output::{Format, Image, Pixels};
 use crate::renderer::Renderer;
-use crate::scene::{Bounds, Camera, Light, LightKind};
+use crate::scene::{Bounds, Camera, ClipPlane, Light, LightKind};
 use crate::transfer::ValueMap;
 use crate::volume::{Precision, VolumeView, Voxels};
 use glam::DVec3;
@@ -23,6 +23,14 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 type Vec3 = (f64, f64, f64);
+
+fn clip_planes(planes: Option<Vec<(Vec3, Vec3)>>) -> PyResult<Vec<ClipPlane>> {
+    planes
+        .unwrap_or_default()
+        .into_iter()
+        .map(|(point, normal)| ClipPlane::new(DVec3::from(point), DVec3::from(normal)).map_err(to_py))
+        .collect()
+}
 
 fn clip_bounds((lo, hi): (Vec3, Vec3)) -> PyResult<Bounds> {
     Bounds::new(DVec3::from(lo), DVec3::from(hi)).map_err(|e| to_py_in("crop box", e))
@@ -248,6 +256,12 @@ impl PyRenderer {
     fn set_clip(&mut self, clip: Option<(Vec3, Vec3)>) -> PyResult<()> {
         self.inner.set_clip(clip.map(clip_bounds).transpose()?);
         Ok(())
+    }
+
+    /// Rays march only where `normal . (x - point) >= 0` for every
+    /// (point, normal) given, world coordinates; an empty list removes them.
+    fn set_clip_planes(&mut self, planes: Vec<(Vec3, Vec3)>) -> PyResult<()> {
+        self.inner.set_clip_planes(&clip_planes(Some(planes))?).map_err(to_py)
     }
 
     /// Renders one frame as a (H, W, 4) array and a dict of frame
@@ -544,7 +558,7 @@ pub fn convert<'py>(
 /// ms; Ctrl-C stops the work (KeyboardInterrupt).
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
-#[pyo3(signature = (data, normals, min_bounds, max_bounds, lut, camera, light, config, width, height, order=None, adaptive_tolerance=0.0, value_map=(1.0, 0.0), clip=None, progress=None))]
+#[pyo3(signature = (data, normals, min_bounds, max_bounds, lut, camera, light, config, width, height, order=None, adaptive_tolerance=0.0, value_map=(1.0, 0.0), clip=None, planes=None, progress=None))]
 pub fn integrate_reference<'py>(
     py: Python<'py>,
     data: &Bound<'py, PyAny>,
@@ -561,6 +575,7 @@ pub fn integrate_reference<'py>(
     adaptive_tolerance: f64,
     value_map: (f64, f64),
     clip: Option<(Vec3, Vec3)>,
+    planes: Option<Vec<(Vec3, Vec3)>>,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<(Bound<'py, PyArray3<f64>>, u64, Bound<'py, PyArray2<f64>>)> {
     if !(adaptive_tolerance >= 0.0 && adaptive_tolerance.is_finite()) {
@@ -571,6 +586,7 @@ pub fn integrate_reference<'py>(
     let rows = lut_rows(&lut)?;
     let value_map = ValueMap::new(value_map.0, value_map.1).map_err(PyValueError::new_err)?;
     let clip = clip.map(clip_bounds).transpose()?;
+    let planes = clip_planes(planes)?;
     let mut cfg = config.inner;
     if let Some(o) = order {
         cfg.order = crate::model::Order::parse(o).map_err(to_py)?;
@@ -593,6 +609,7 @@ pub fn integrate_reference<'py>(
             adaptive_tolerance,
             value_map,
             clip,
+            planes: &planes,
             slopes: None,
         };
         run_released(py, |stop| {

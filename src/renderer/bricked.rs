@@ -254,6 +254,7 @@ impl Renderer {
             lut_size: self.tables.lut.as_ref().map_or(1, |(_, n)| *n),
             value_map: self.value_map,
             clip: self.clip,
+            planes: &self.planes,
             max_extinction: self.max_extinction(cfg),
         };
         let params = Params { keep_state: keep_state as u32, ..Params::new(&inputs, &basis, light, cfg) };

@@ -276,6 +276,7 @@ impl Renderer {
             lut_size: self.tables.lut.as_ref().map_or(1, |(_, n)| *n),
             value_map: self.value_map.after(vol.stored),
             clip: self.clip,
+            planes: &self.planes,
             max_extinction: self.max_extinction(cfg),
         };
         let mut params = Params::new(&inputs, &basis, light, cfg).with_slopes(vol.grid.slopes, self.value_map.scale);

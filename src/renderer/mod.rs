@@ -10,8 +10,8 @@ use crate::gpu::context::{GpuContext, ProcessSlot};
 use crate::gpu::pipeline::Pipelines;
 use crate::model::Model;
 use crate::occupancy::{segment_ranges, uniform_radius, SegmentRanges};
-use crate::plan::Params;
-use crate::scene::Bounds;
+use crate::plan::{Params, MAX_CLIP_PLANES};
+use crate::scene::{Bounds, ClipPlane};
 use crate::transfer::ValueMap;
 use crate::volume::{Precision, VolumeView};
 use device::{Caps, Device, EngineChoice};
@@ -133,6 +133,8 @@ pub struct Renderer {
     value_map: ValueMap,
     /// Crop box in world coordinates (None: the whole volume).
     clip: Option<Bounds>,
+    /// Half-spaces rays march in, world coordinates (at most MAX_CLIP_PLANES).
+    planes: Vec<ClipPlane>,
     /// Leap over empty cells (on by default; off to measure what it saves).
     pub skip_empty: bool,
     /// With `skip_empty`: composite runs through uniform cells as one segment.
@@ -227,6 +229,7 @@ impl Renderer {
             spare_grids: Vec::new(),
             value_map: ValueMap::IDENTITY,
             clip: None,
+            planes: Vec::new(),
             skip_empty: true,
             uniform_runs: true,
             shader_filtering: false,
@@ -456,6 +459,16 @@ impl Renderer {
     /// on; None marches the whole volume. Nothing is uploaded.
     pub fn set_clip(&mut self, clip: Option<Bounds>) {
         self.clip = clip;
+    }
+
+    /// Rays and shadow rays march only on the kept side of every plane from
+    /// the next frame on (none: no planes). Nothing is uploaded.
+    pub fn set_clip_planes(&mut self, planes: &[ClipPlane]) -> Result<(), Error> {
+        if planes.len() > MAX_CLIP_PLANES {
+            return Err(Error::InvalidInput(format!("at most {MAX_CLIP_PLANES} clip planes, got {}", planes.len())));
+        }
+        self.planes = planes.to_vec();
+        Ok(())
     }
 
     /// Which occupancy cells the current table can make visible (or, for
