@@ -72,6 +72,28 @@ def test_cluster_render_equals_single_machine(client, scene, kw, tol):
     assert np.abs(got - want).max() < tol, np.abs(got - want).max() / LEVEL
 
 
+def test_clip_planes_reach_the_workers(client, scene):
+    r, lazy = scene
+    r.set_config(config(early_ray_termination=False))
+    whole = r.render(dtype=np.float32, premultiplied=True)
+    path = CameraPath([Camera.from_spherical(np.zeros(3), a, 0.3, 0.0, 3.0) for a in (0.0, 1.0)])
+    unclipped = list(r.render_path(path, 2))
+    r.set_clip_planes([((0.1, 0.0, 0.0), (1.0, 0.4, -0.2))])
+    try:
+        want = r.render(dtype=np.float32, premultiplied=True)
+        got = pyvr.distributed.render(r, lazy, client, dtype=np.float32, premultiplied=True)
+        local = list(r.render_path(path, 2))
+        farmed = pyvr.distributed.render_path(r, path, 2, client)
+    finally:
+        r.set_clip_planes(None)
+    assert np.abs(whole - want).max() > 0.1, "the plane cuts what the frame shows"
+    assert np.abs(got - want).max() < 0.05 * LEVEL
+    for a, b, c in zip(local, farmed, unclipped):
+        a, b, c = a.astype(int), b.astype(int), c.astype(int)
+        assert np.abs(a[..., 3] - b[..., 3]).max() <= 1
+        assert np.abs(a[..., 3] - c[..., 3]).max() > 20
+
+
 def test_early_termination_per_brick_stays_within_its_bound(client, scene):
     r, lazy = scene
     r.set_config(config(opacity_threshold=0.9))

@@ -79,6 +79,7 @@ def _render_brick(spec: dict, index: int, block, normals) -> np.ndarray:
     r.set_lut(np.require(spec["lut"], np.float32, ["C", "A"]))
     r.set_value_map(*spec["value_map"])
     r.set_clip(spec["clip"])
+    r.set_clip_planes(list(spec["planes"]))
     r.set_brick_layout(spec["dims"], *spec["bounds"], spec["core"], spec["ghost"])
     r.set_brick(index, prepare_voxels(np.asarray(block)),
                 None if normals is None else prepare_normals(np.asarray(normals)), spec["precision"])
@@ -171,7 +172,7 @@ def _scene(renderer, volume) -> dict:
         # This volume's, whatever the renderer has loaded (often nothing): the
         # transfer functions' value range, else the volume's own.
         "value_map": _value_map_for(renderer._tf_value_range or volume.value_range, volume.data.dtype),
-        "clip": renderer._crop, "skip_empty": renderer.empty_space_skipping, "dims": shape, "bounds": bounds,
+        "clip": renderer._crop, "planes": renderer.clip_planes, "skip_empty": renderer.empty_space_skipping, "dims": shape, "bounds": bounds,
         "core": core, "ghost": ghost, "precision": renderer._precision, "camera": renderer._frame_camera(),
         "light": renderer._light_args, "config": cfg,
     }
@@ -295,12 +296,18 @@ def _render_frame(volume, state: dict, camera, options: dict) -> np.ndarray:
             del _RENDERERS[k]
         r = VolumeRenderer(state["width"], state["height"], config=state["config"], light=state["light"])
         r.load_volume(volume, precision=state["precision"])
+        _RENDERERS[key] = r
+    # The volume is kept between paths; the rest is this path's, each time
+    # (a later path may change the transfer functions, the config or the cuts).
+    r.set_config(state["config"])
+    r.set_light(state["light"])
+    if r._lut is None or not np.array_equal(r._lut, state["lut"]):  # a new table rebuilds the empty cells
         r._lut, r._has_tf = state["lut"], True
         r._engine.set_lut(state["lut"])
-        r._tf_value_range = state["tf_value_range"]
-        r._update_value_map()
-        r.set_crop_box(*(state["crop"] or (None, None)))
-        _RENDERERS[key] = r
+    r._tf_value_range = state["tf_value_range"]
+    r._update_value_map()
+    r.set_crop_box(*(state["crop"] or (None, None)))
+    r.set_clip_planes(state["planes"])
     r.set_camera(camera)  # a camera-linked light follows, as in render_path
     return r.render(**options)
 
@@ -327,6 +334,7 @@ def render_path(renderer, path, n_frames: Optional[int] = None, client=None, *, 
         "token": id(renderer.volume), "width": renderer.width, "height": renderer.height,
         "config": renderer._config_snapshot, "light": renderer.get_light(), "precision": renderer._precision,
         "lut": renderer._lut, "tf_value_range": renderer._tf_value_range, "crop": renderer.crop_box,
+        "planes": renderer.clip_planes,
     }
     options = {"origin": origin, "background": background, "dtype": dtype}
     futures = [client.submit(_render_frame, volume, state, c, options, pure=False) for c in cameras]
