@@ -41,6 +41,7 @@ fn main() {
         target: DVec3::ZERO,
         up: DVec3::Z,
         fov_y: std::f64::consts::FRAC_PI_4,
+        view_height: None,
     };
     for (label, light) in [("ambient", Light { diffuse: 0.0, ..Light::default() }), ("gradient", Light::default())] {
         let cfg = RenderConfig::default();

@@ -72,6 +72,7 @@ fn main() {
         target: DVec3::ZERO,
         up: DVec3::Z,
         fov_y: std::f64::consts::FRAC_PI_4,
+        view_height: None,
     };
     let light = Light::default();
     let cfg = RenderConfig::default();

@@ -6,8 +6,8 @@ struct Params {
     // Positions are relative to the box's min corner: the box is [0, extent].
     cam_pos: vec4<f32>,
     cam_fwd: vec4<f32>,
-    cam_right: vec4<f32>,   // scaled by aspect * tan(fov / 2)
-    cam_up: vec4<f32>,      // scaled by tan(fov / 2)
+    cam_right: vec4<f32>,   // scaled by aspect * tan(fov / 2) (orthographic: aspect * height / 2)
+    cam_up: vec4<f32>,      // scaled by tan(fov / 2) (orthographic: height / 2)
     extent: vec4<f32>,
     inv_extent: vec4<f32>,
     inv_two_spacing: vec4<f32>,  // 1 / (2 * voxel spacing), world axes
@@ -82,6 +82,11 @@ struct Params {
     // Rays march where n . p + c >= 0 for the first clip_count planes
     // (n, c) (src/plan/params.rs plane_in_block).
     clip_count: u32,
+    // 1: parallel rays from cam_pos + X cam_right + Y cam_up along cam_fwd.
+    orthographic: u32,
+    plan_pad0: u32,
+    plan_pad1: u32,
+    plan_pad2: u32,
     clip_planes: array<vec4<f32>, MAX_CLIP_PLANES>,
 };
 

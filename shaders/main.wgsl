@@ -25,8 +25,13 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
         (2.0 * f32(gid.x) + 1.0 - f32(P.width)) / f32(P.width),
         (2.0 * f32(gid.y) + 1.0 - f32(P.height)) / f32(P.height),
     );
-    let o = P.cam_pos.xyz;
-    let d = normalize(P.cam_fwd.xyz + ndc.x * P.cam_right.xyz + ndc.y * P.cam_up.xyz);
+    var o = P.cam_pos.xyz;
+    var d = P.cam_fwd.xyz;
+    if (P.orthographic == 1u) {
+        o = o + ndc.x * P.cam_right.xyz + ndc.y * P.cam_up.xyz;
+    } else {
+        d = normalize(d + ndc.x * P.cam_right.xyz + ndc.y * P.cam_up.xyz);
+    }
 
     // Slab test; a zero direction component never divides.
     var t0 = -3.0e38;

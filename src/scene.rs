@@ -143,17 +143,25 @@ pub struct Camera {
     pub up: DVec3,
     /// Vertical field of view in radians, in (0, pi).
     pub fov_y: f64,
+    /// Orthographic: the world height the image spans, its rays parallel to
+    /// the view direction and starting on the camera's plane; None:
+    /// perspective, every ray from `position`.
+    pub view_height: Option<f64>,
 }
 
-/// Per-frame ray basis: `dir(ndc) = normalize(forward + ndc.x*right + ndc.y*up)`.
+/// Per-frame ray basis. Perspective: every ray starts at `origin`, along
+/// `normalize(forward + ndc.x*right + ndc.y*up)`. Orthographic: rays start
+/// at `origin + ndc.x*right + ndc.y*up`, all along `forward`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RayBasis {
     pub origin: DVec3,
     pub forward: DVec3,
-    /// Screen right, scaled by `aspect * tan(fov/2)`.
+    /// Screen right, scaled by `aspect * tan(fov/2)` (orthographic: by
+    /// `aspect * view_height / 2`).
     pub right: DVec3,
-    /// Screen up, scaled by `tan(fov/2)`.
+    /// Screen up, scaled by `tan(fov/2)` (orthographic: `view_height / 2`).
     pub up: DVec3,
+    pub orthographic: bool,
 }
 
 impl Camera {
@@ -192,9 +200,29 @@ impl Camera {
         }
         let r = r.normalize();
         let u = r.cross(f);
-        let t = (self.fov_y * 0.5).tan();
         let aspect = width as f64 / height as f64;
-        Ok(RayBasis { origin: self.position, forward: f, right: r * (aspect * t), up: u * t })
+        let (half, orthographic) = match self.view_height {
+            None => ((self.fov_y * 0.5).tan(), false),
+            Some(h) if h > 0.0 && h.is_finite() => (0.5 * h, true),
+            Some(h) => {
+                return Err(Error::InvalidInput(format!(
+                    "an orthographic camera's view height must be a finite number > 0, got {h}"
+                )))
+            }
+        };
+        Ok(RayBasis { origin: self.position, forward: f, right: r * (aspect * half), up: u * half, orthographic })
+    }
+
+    /// A point from which bricks seen by this camera are ordered front to
+    /// back: its position, or for parallel rays a point far behind it along
+    /// the view, whatever the scene's size.
+    pub fn ordering_eye(&self, bounds: &Bounds) -> DVec3 {
+        if self.view_height.is_none() {
+            return self.position;
+        }
+        let f = (self.target - self.position).normalize_or_zero();
+        let far = 1.0e6 * (bounds.extent().length() + (self.position - bounds.min).length());
+        self.position - f * far
     }
 }
 
@@ -202,9 +230,19 @@ impl RayBasis {
     /// Direction of the ray through the centre of pixel (col, row), row 0 at
     /// the bottom of the image (pyvr's order).
     pub fn direction(&self, col: u32, row: u32, width: u32, height: u32) -> DVec3 {
+        self.ray(col, row, width, height).1
+    }
+
+    /// Origin and unit direction of the ray through the centre of pixel
+    /// (col, row), row 0 at the bottom.
+    pub fn ray(&self, col: u32, row: u32, width: u32, height: u32) -> (DVec3, DVec3) {
         let nx = 2.0 * (col as f64 + 0.5) / width as f64 - 1.0;
         let ny = 2.0 * (row as f64 + 0.5) / height as f64 - 1.0;
-        (self.forward + self.right * nx + self.up * ny).normalize()
+        if self.orthographic {
+            (self.origin + self.right * nx + self.up * ny, self.forward)
+        } else {
+            (self.origin, (self.forward + self.right * nx + self.up * ny).normalize())
+        }
     }
 }
 
@@ -321,6 +359,7 @@ mod tests {
             target: DVec3::ZERO,
             up: DVec3::Z,
             fov_y: std::f64::consts::FRAC_PI_2,
+            view_height: None,
         };
         let b = cam.basis(2, 1).unwrap();
         assert!((b.forward - DVec3::new(-1.0, 0.0, 0.0)).length() < 1e-12);
@@ -331,7 +370,13 @@ mod tests {
 
     #[test]
     fn up_parallel_to_view_falls_back() {
-        let cam = Camera { position: DVec3::new(0.0, 0.0, 3.0), target: DVec3::ZERO, up: DVec3::Z, fov_y: 0.8 };
+        let cam = Camera {
+            position: DVec3::new(0.0, 0.0, 3.0),
+            target: DVec3::ZERO,
+            up: DVec3::Z,
+            fov_y: 0.8,
+            view_height: None,
+        };
         let b = cam.basis(4, 4).unwrap();
         assert!(b.right.is_finite() && b.up.is_finite() && b.right.length() > 0.1);
     }

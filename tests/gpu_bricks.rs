@@ -60,9 +60,21 @@ fn bricked_frames_equal_the_whole_volume() {
     let mut bricked = Renderer::new(48, 40).unwrap();
     bricked.set_lut(&table).unwrap();
     let cameras = [
-        Camera { position: DVec3::new(2.5, 1.5, 1.0), target: DVec3::ZERO, up: DVec3::Z, fov_y: 0.8 },
+        Camera {
+            position: DVec3::new(2.5, 1.5, 1.0),
+            target: DVec3::ZERO,
+            up: DVec3::Z,
+            fov_y: 0.8,
+            view_height: None,
+        },
         // Inside the volume, in a middle brick.
-        Camera { position: DVec3::new(0.05, -0.1, 0.2), target: DVec3::new(-1.0, 0.3, 0.1), up: DVec3::Z, fov_y: 1.2 },
+        Camera {
+            position: DVec3::new(0.05, -0.1, 0.2),
+            target: DVec3::new(-1.0, 0.3, 0.1),
+            up: DVec3::Z,
+            fov_y: 1.2,
+            view_height: None,
+        },
     ];
     let base = RenderConfig { step_size: 0.03, ..RenderConfig::default() };
     let configs = [

@@ -47,7 +47,13 @@ fn kept_grids_go_with_the_volume_and_the_value_map() {
     fn view(d: &[f32], bounds: Bounds) -> VolumeView<'_> {
         VolumeView::new([N; 3], Voxels::F32(d), None, bounds).unwrap()
     }
-    let cam = Camera { position: DVec3::new(0.4, 3.0, 0.3), target: DVec3::ZERO, up: DVec3::Z, fov_y: 0.8 };
+    let cam = Camera {
+        position: DVec3::new(0.4, 3.0, 0.3),
+        target: DVec3::ZERO,
+        up: DVec3::Z,
+        fov_y: 0.8,
+        view_height: None,
+    };
     let light = Light::default();
     // Half a step is 0.8 voxels: pre-integrated segments leap over wider ranges.
     let plain = RenderConfig { step_size: 0.08, ..RenderConfig::default() };

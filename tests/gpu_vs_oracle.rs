@@ -74,7 +74,13 @@ fn base_frame<'a>(vol: VolumeView<'a>, lut: &'a [[f32; 4]]) -> Frame<'a> {
     Frame {
         volume: vol,
         lut,
-        camera: Camera { position: DVec3::new(1.8, 1.5, 1.2), target: DVec3::ZERO, up: DVec3::Z, fov_y: 0.8 },
+        camera: Camera {
+            position: DVec3::new(1.8, 1.5, 1.2),
+            target: DVec3::ZERO,
+            up: DVec3::Z,
+            fov_y: 0.8,
+            view_height: None,
+        },
         light: Light::default(),
         config: RenderConfig::default(),
         width: 40,
@@ -191,8 +197,13 @@ fn camera_inside_axis_aligned_u8_ambient() {
     let lut = ramp_lut();
     let vol = VolumeView::new(dims, Voxels::U8(&data), None, Bounds::default()).unwrap();
     let mut f = base_frame(vol, &lut);
-    f.camera =
-        Camera { position: DVec3::new(0.1, 0.0, 0.0), target: DVec3::new(-1.0, 0.0, 0.0), up: DVec3::Z, fov_y: 1.2 };
+    f.camera = Camera {
+        position: DVec3::new(0.1, 0.0, 0.0),
+        target: DVec3::new(-1.0, 0.0, 0.0),
+        up: DVec3::Z,
+        fov_y: 1.2,
+        view_height: None,
+    };
     f.light = Light { diffuse: 0.0, ambient: 0.7, ..Light::default() };
     f.config = RenderConfig {
         early_ray_termination: false,
@@ -368,7 +379,13 @@ fn errors_say_whose_move_it_is() {
     assert!(matches!(Renderer::new(0, 4), Err(Error::InvalidInput(_))));
     assert!(matches!(Renderer::new(1 << 30, 1 << 30), Err(Error::DeviceLimit(_))));
     let mut gpu = Renderer::new(4, 4).unwrap();
-    let camera = Camera { position: DVec3::new(3.0, 0.0, 0.0), target: DVec3::ZERO, up: DVec3::Z, fov_y: 0.8 };
+    let camera = Camera {
+        position: DVec3::new(3.0, 0.0, 0.0),
+        target: DVec3::ZERO,
+        up: DVec3::Z,
+        fov_y: 0.8,
+        view_height: None,
+    };
     let light =
         Light { position: DVec3::ONE, target: DVec3::ZERO, ambient: 0.2, diffuse: 0.8, kind: LightKind::Directional };
     let err = gpu.render(&camera, &light, &RenderConfig::default()).unwrap_err();

@@ -45,7 +45,13 @@ fn the_native_march_renders_the_shaders_frame() {
     // Opaque at every value for the projections: the minimum along a ray
     // through the box is near 0.
     let opaque: Vec<[f32; 4]> = lut.iter().map(|&[r, g, b, a]| [r, g, b, 0.3 + a]).collect();
-    let camera = Camera { position: DVec3::new(2.2, 1.4, 1.1), target: DVec3::ZERO, up: DVec3::Z, fov_y: 0.8 };
+    let camera = Camera {
+        position: DVec3::new(2.2, 1.4, 1.1),
+        target: DVec3::ZERO,
+        up: DVec3::Z,
+        fov_y: 0.8,
+        view_height: None,
+    };
     let light = Light::default();
     let mut r = Renderer::new(40, 36).unwrap();
     if r.device().gpu.is_none() {

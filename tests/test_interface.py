@@ -286,6 +286,22 @@ def test_reset_key_and_light_link_key(ui):
     assert not light.is_linked and not ui.state.light_linked_to_camera
 
 
+def test_the_o_key_switches_to_parallel_rays_and_back(ui):
+    start = shown(ui).copy()
+    key(ui, "o")
+    p = ui.camera_controller.params
+    assert p.projection == "orthographic" and ui.renderer.camera.projection == "orthographic"
+    ortho = shown(ui).copy()
+    # Another picture, and the one the renderer gives for that camera.
+    assert np.abs(ortho.astype(int) - start.astype(int)).max() > 10
+    key(ui, "r")
+    assert ui.camera_controller.params.projection == "orthographic"  # the view resets, not the projection
+    key(ui, "o")
+    key(ui, "r")
+    assert ui.camera_controller.params.projection == "perspective"
+    assert np.array_equal(shown(ui), start)
+
+
 def test_fps_histogram_and_save_keys(ui, tmp_path):
     key(ui, "f")
     assert not ui.state.show_fps and not ui.image_display.fps_text.get_visible()

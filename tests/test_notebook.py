@@ -15,7 +15,7 @@ from pyvr import VolumeRenderer
 from pyvr.camera import Camera
 from pyvr.datasets import create_sample_volume
 from pyvr.lighting import Light
-from pyvr.notebook import VolumeView
+from pyvr.notebook import NOTEBOOK_BACKGROUND, VolumeView
 from pyvr.volume import Volume
 
 EXAMPLE = os.path.join(os.path.dirname(__file__), "..", "examples", "notebook.ipynb")
@@ -74,6 +74,18 @@ def test_view_wheel_zooms_and_linked_light_follows(renderer):
     np.testing.assert_allclose(renderer.get_light().position, pos, atol=1e-5)
     view._scroll_settled()  # what the 0.5 s timer calls
     assert view.draw().shape == (80, 96, 4)
+
+
+def test_the_o_key_switches_the_views_projection(renderer):
+    view = VolumeView(renderer)
+    perspective = view.draw()
+    view.handle_event({"type": "key_down", "key": "o", "modifiers": []})
+    assert view.camera.projection == "orthographic"
+    ortho = view.draw()
+    assert np.abs(ortho.astype(int) - perspective.astype(int)).max() > 10
+    assert np.array_equal(ortho, renderer.render(origin="upper", background=NOTEBOOK_BACKGROUND))
+    view.handle_event({"type": "key_down", "key": "o", "modifiers": []})
+    assert np.array_equal(view.draw(), perspective)
 
 
 def test_view_rejects_bad_input():

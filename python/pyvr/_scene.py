@@ -6,7 +6,7 @@ import tempfile
 
 import numpy as np
 
-from ._numbers import check_count
+from ._numbers import check_count, is_number
 from .camera import Camera, CameraPath
 from .lighting import Light
 
@@ -82,8 +82,18 @@ def _runtime_dir() -> None:
 
 
 def _camera_tuple(camera: Camera):
+    """What the core takes: (position, target, up, fov), and for an
+    orthographic camera its view height as a fifth number."""
     position, up = camera.get_camera_vectors()
-    return (_vec(position), _vec(camera.target), _vec(up), float(camera.fov))
+    args = (_vec(position), _vec(camera.target), _vec(up), float(camera.fov))
+    if camera.projection == "perspective":
+        return args
+    if camera.projection != "orthographic":
+        raise ValueError(f"projection must be one of perspective, orthographic, got {camera.projection!r}")
+    height = camera.orthographic_height
+    if not (is_number(height) and 0 < height < np.inf):
+        raise ValueError(f"view_height must be a finite number > 0 or None, got {camera.view_height!r}")
+    return args + (float(height),)
 
 
 def _light_tuple(light: Light):

@@ -3,8 +3,9 @@
 >>> from pyvr.notebook import VolumeView
 >>> VolumeView(renderer)          # last expression of a cell: shows the view
 
-Drag with the left button to rotate (trackball), scroll to zoom: the wheel
-zooms once the view has the keyboard focus (click it first); until then
+Drag with the left button to rotate (trackball), scroll to zoom, press
+``o`` to switch to parallel rays and back: the wheel and the keys work
+once the view has the keyboard focus (click it first); until then
 the browser scrolls the page, as it does over any picture. While the
 mouse drags or the wheel turns, frames are rendered cheaper (see
 ``pyvr.interaction.DragQuality``) and full quality returns on release, or
@@ -120,7 +121,8 @@ class VolumeView(RemoteFrameBuffer):
     # -- events ------------------------------------------------------------
     def handle_event(self, event: dict) -> None:
         """jupyter_rfb's event callback: pointer drags turn the camera, the wheel
-        zooms, resizes rescale the drag."""
+        zooms, the ``o`` key switches between perspective and orthographic
+        projection, resizes rescale the drag."""
         kind = event.get("type", event.get("event_type"))
         if kind == "pointer_down" and event.get("button", 1) == 1:
             self._event_time = time.perf_counter()
@@ -148,6 +150,14 @@ class VolumeView(RemoteFrameBuffer):
                 self._begin()
                 self.request_draw()
                 self._settle_later()
+        elif kind == "key_down" and event.get("key") == "o":
+            # Orthographic / perspective, as the window's o key; the view's
+            # height follows the distance, so the target keeps its size.
+            self._event_time = time.perf_counter()
+            cam = self.controller.params
+            cam.projection = "perspective" if cam.projection == "orthographic" else "orthographic"
+            cam.view_height = None
+            self.request_draw()
         elif kind == "resize":
             if event.get("width", 0) > 0 and event.get("height", 0) > 0:
                 self._view_size = (float(event["width"]), float(event["height"]))

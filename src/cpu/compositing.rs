@@ -525,7 +525,7 @@ pub unsafe fn march<T: Texels>(
                         (x, add)
                     } else {
                         let t = _mm256_add_ps(rays.t0, at);
-                        let pos = std::array::from_fn(|k| _mm256_fmadd_ps(rays.d[k], t, _mm256_set1_ps(p.cam_pos[k])));
+                        let pos = std::array::from_fn(|k| _mm256_fmadd_ps(rays.d[k], t, rays.o[k]));
                         let (light, count) = scatter(pos, need);
                         shadow_taken = count;
                         (x, add.map(|c| _mm256_mul_ps(c, light)))
@@ -767,6 +767,7 @@ mod tests {
                 lane(7),
             ));
             let rays = super::super::rays8::Rays {
+                o: [_mm256_setzero_ps(); 3],
                 d: [_mm256_setzero_ps(); 3],
                 t0: _mm256_set1_ps(2.0),
                 chord: _mm256_set1_ps(2.0),

@@ -36,6 +36,8 @@ impl Footprint {
 /// meeting it have (X, Y) inside the corners' bounding rectangle. The
 /// rectangle is widened by 10^-4 of its extent and two pixels, far more
 /// than the rays' f32 rounding moves a hit (about 10^-7 of the view).
+/// Parallel rays (orthographic) start at pos + X right + Y up: a point
+/// lies on the ray of (X, Y) = (b, c), in front of the camera or not.
 pub fn footprint(p: &Params) -> Option<Footprint> {
     let v = |x: [f32; 4]| glam::DVec3::new(x[0] as f64, x[1] as f64, x[2] as f64);
     let (pos, fwd, right, up) = (v(p.cam_pos), v(p.cam_fwd), v(p.cam_right), v(p.cam_up));
@@ -52,11 +54,17 @@ pub fn footprint(p: &Params) -> Option<Footprint> {
         let corner = glam::DVec3::select(glam::BVec3::new(k & 1 != 0, k & 2 != 0, k & 4 != 0), hi, lo);
         let q = corner - pos;
         let a = q.dot(ra) / det;
-        // (A corner on the camera's plane, or within rounding of it, gives up.)
-        if !(a > 1e-9 * q.length() / fwd.length()) {
-            return None;
-        }
-        let (bx, cy) = (q.dot(rb) / det / a, q.dot(rc) / det / a);
+        let (bx, cy) = if p.orthographic == 1 {
+            // Parallel rays: the ray of (X, Y) = (b, c) passes q (at t = a;
+            // corners behind the camera's plane only widen the rectangle).
+            (q.dot(rb) / det, q.dot(rc) / det)
+        } else {
+            // (A corner on the camera's plane, or within rounding of it, gives up.)
+            if !(a > 1e-9 * q.length() / fwd.length()) {
+                return None;
+            }
+            (q.dot(rb) / det / a, q.dot(rc) / det / a)
+        };
         x = (x.0.min(bx), x.1.max(bx));
         y = (y.0.min(cy), y.1.max(cy));
     }
@@ -83,8 +91,8 @@ mod tests {
 
     /// Every pixel whose ray (the scalar rule's) meets the box lies in the
     /// footprint, over cameras near and far, inside the box and grazing it,
-    /// crops and image shapes; and from outside most footprints leave
-    /// pixels out.
+    /// parallel projections, crops and image shapes; and from outside most
+    /// footprints leave pixels out.
     #[test]
     fn every_ray_that_meets_the_box_lies_inside() {
         let volume = CpuVolume { texels: Texels::R32Float(vec![0.0; 8]), dims: [2, 2, 2], normals: None };
@@ -119,6 +127,8 @@ mod tests {
                 clip_hi: v4(std::array::from_fn(|a| if crop { 0.7 * ext[a] } else { ext[a] })),
                 step_size: 0.01,
                 max_steps: 1000,
+                // Parallel rays every seventh case, fov read as the view's half height.
+                orthographic: (case % 7 == 2) as u32,
                 ..Default::default()
             };
             let frame = frame(&p, &volume);

@@ -74,7 +74,7 @@ pub(super) unsafe fn sample_light<T: Texels>(
 #[target_feature(enable = "avx2,fma,f16c")]
 pub(super) fn point_light_travel(p: &Params, rays: &super::rays8::Rays, at: __m256) -> ([__m256; 3], __m256) {
     let t = _mm256_add_ps(rays.t0, at);
-    let pos = std::array::from_fn(|k| _mm256_fmadd_ps(rays.d[k], t, _mm256_set1_ps(p.cam_pos[k])));
+    let pos = std::array::from_fn(|k| _mm256_fmadd_ps(rays.d[k], t, rays.o[k]));
     let (dir, defined, _) = travel_from_light(p, pos);
     (dir, defined)
 }

@@ -419,6 +419,7 @@ pub const MAX_STEPS: u32 = 1 << 30;
 #[cfg(test)]
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Ray {
+    pub o: [f32; 3],
     pub d: [f32; 3],
     pub t0: f32,
     pub chord: f32,
@@ -435,13 +436,14 @@ impl Ray {
         let p = frame.params;
         let (w, h) = (p.width as f32, p.height as f32);
         let ndc = [(2.0 * col as f32 + 1.0 - w) / w, (2.0 * row as f32 + 1.0 - h) / h];
-        let mut d = [0f32; 3];
-        for a in 0..3 {
-            d[a] = p.cam_fwd[a] + ndc[0] * p.cam_right[a] + ndc[1] * p.cam_up[a];
-        }
-        let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-        d = d.map(|c| c / l);
-        let o = &p.cam_pos;
+        let across = |base: &[f32; 4], a: usize| base[a] + ndc[0] * p.cam_right[a] + ndc[1] * p.cam_up[a];
+        let (o, d) = if p.orthographic == 1 {
+            (std::array::from_fn(|a| across(&p.cam_pos, a)), std::array::from_fn(|a| p.cam_fwd[a]))
+        } else {
+            let d: [f32; 3] = std::array::from_fn(|a| across(&p.cam_fwd, a));
+            let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+            (std::array::from_fn(|a| p.cam_pos[a]), d.map(|c| c / l))
+        };
         let (mut t0, mut t1) = (-3.0e38f32, 3.0e38f32);
         for a in 0..3 {
             if d[a] == 0.0 {
@@ -474,7 +476,7 @@ impl Ray {
         let shift = if frame.jitter { crate::model::jitter_shift(col, row, p.jitter_seed) } else { 0.0 };
         let needed = (chord / p.step_size - shift).ceil().min(4.0e9) as u32;
         let n = needed.min(p.max_steps);
-        let mut ray = Ray { d, t0, chord, shift, n, needed, window: (0, n) };
+        let mut ray = Ray { o, d, t0, chord, shift, n, needed, window: (0, n) };
         if p.bricked == 1 {
             ray.window = ray.brick_window(frame, t1);
             if frame.skip_empty && p.occupied_hi[3] == 1.0 {
@@ -491,7 +493,7 @@ impl Ray {
     /// main.wgsl `brick_window`, and its (0, 0) where a brick holds none.
     fn brick_window(&self, frame: &Frame, t1: f32) -> (u32, u32) {
         let p = frame.params;
-        let o = &p.cam_pos;
+        let o = &self.o;
         let (mut a0, mut a1) = (self.t0, t1);
         for a in 0..3 {
             if self.d[a] == 0.0 {
@@ -531,7 +533,7 @@ impl Ray {
         for k in 0..3 {
             // The block's boxes are in texture axis order: numpy axis k is texture axis 2 - k.
             let (lo, hi) = (p.occupied_lo[2 - k], p.occupied_hi[2 - k]);
-            let tc = (p.cam_pos[k] + self.d[k] * self.t0) * p.tex_scale[k] + p.tex_offset[k];
+            let tc = (self.o[k] + self.d[k] * self.t0) * p.tex_scale[k] + p.tex_offset[k];
             let u0 = tc * dims[k] as f32 - p.border as f32;
             let du = self.d[k] * p.tex_scale[k] * dims[k] as f32;
             if du == 0.0 {

@@ -12,6 +12,9 @@ use std::arch::x86_64::*;
 /// Lane l holds pixel (col0 + l, row)'s ray; lanes without one (off the
 /// image or missing the box) have an empty window and zero geometry.
 pub struct Rays {
+    /// Where each ray starts: the camera, or for parallel rays a point of
+    /// the camera's plane.
+    pub o: [__m256; 3],
     pub d: [__m256; 3],
     pub t0: __m256,
     pub chord: __m256,
@@ -64,34 +67,45 @@ pub unsafe fn rays(frame: &Frame, col0: u32, row: u32) -> Rays {
     let w = set(p.width as f32);
     let ndc_x = _mm256_div_ps(_mm256_sub_ps(_mm256_fmadd_ps(set(2.0), _mm256_cvtepi32_ps(cols), one), w), w);
     let ndc_y = set((2.0 * row as f32 + 1.0 - p.height as f32) / p.height as f32);
-    let mut d: [__m256; 3] = std::array::from_fn(|a| {
+    // (pos + X right) + Y up, or fwd + X right + Y up normalised: the scalar rule's order.
+    let across = |base: &[f32; 4], a: usize| {
         _mm256_add_ps(
-            _mm256_add_ps(set(p.cam_fwd[a]), _mm256_mul_ps(ndc_x, set(p.cam_right[a]))),
+            _mm256_add_ps(set(base[a]), _mm256_mul_ps(ndc_x, set(p.cam_right[a]))),
             _mm256_mul_ps(ndc_y, set(p.cam_up[a])),
         )
-    });
-    let len = _mm256_sqrt_ps(_mm256_add_ps(
-        _mm256_add_ps(_mm256_mul_ps(d[0], d[0]), _mm256_mul_ps(d[1], d[1])),
-        _mm256_mul_ps(d[2], d[2]),
-    ));
-    d = d.map(|c| _mm256_div_ps(c, len));
+    };
+    let (o, d): ([__m256; 3], [__m256; 3]) = if p.orthographic == 1 {
+        (std::array::from_fn(|a| across(&p.cam_pos, a)), std::array::from_fn(|a| set(p.cam_fwd[a])))
+    } else {
+        let d: [__m256; 3] = std::array::from_fn(|a| across(&p.cam_fwd, a));
+        let len = _mm256_sqrt_ps(_mm256_add_ps(
+            _mm256_add_ps(_mm256_mul_ps(d[0], d[0]), _mm256_mul_ps(d[1], d[1])),
+            _mm256_mul_ps(d[2], d[2]),
+        ));
+        (std::array::from_fn(|a| set(p.cam_pos[a])), d.map(|c| _mm256_div_ps(c, len)))
+    };
     let (mut t0, mut t1) = (set(-3.0e38), set(3.0e38));
     for a in 0..3 {
-        let o = p.cam_pos[a];
         // A ray parallel to an axis's planes meets the box only from between them.
         let flat = _mm256_cmp_ps::<_CMP_EQ_OQ>(d[a], zero);
-        if o < p.clip_lo[a] || o > p.clip_hi[a] {
-            hit = _mm256_andnot_ps(flat, hit);
-        }
+        let (lo, hi) = (set(p.clip_lo[a]), set(p.clip_hi[a]));
+        let beyond = _mm256_or_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(o[a], lo), _mm256_cmp_ps::<_CMP_GT_OQ>(o[a], hi));
+        hit = _mm256_andnot_ps(_mm256_and_ps(flat, beyond), hit);
         let inv = _mm256_div_ps(one, d[a]);
-        let ta = _mm256_mul_ps(_mm256_sub_ps(set(p.clip_lo[a]), set(o)), inv);
-        let tb = _mm256_mul_ps(_mm256_sub_ps(set(p.clip_hi[a]), set(o)), inv);
+        let ta = _mm256_mul_ps(_mm256_sub_ps(lo, o[a]), inv);
+        let tb = _mm256_mul_ps(_mm256_sub_ps(hi, o[a]), inv);
         t0 = _mm256_blendv_ps(_mm256_max_ps(_mm256_min_ps(ta, tb), t0), t0, flat);
         t1 = _mm256_blendv_ps(_mm256_min_ps(_mm256_max_ps(ta, tb), t1), t1, flat);
     }
     // Clip planes (main.wgsl): along the ray n . p + c is f0 + t (n . d).
     for q in &p.clip_planes[..p.clip_count as usize] {
-        let f0 = set(q[0] * p.cam_pos[0] + q[1] * p.cam_pos[1] + q[2] * p.cam_pos[2] + q[3]);
+        let f0 = _mm256_add_ps(
+            _mm256_add_ps(
+                _mm256_add_ps(_mm256_mul_ps(set(q[0]), o[0]), _mm256_mul_ps(set(q[1]), o[1])),
+                _mm256_mul_ps(set(q[2]), o[2]),
+            ),
+            set(q[3]),
+        );
         let slope = _mm256_add_ps(
             _mm256_add_ps(_mm256_mul_ps(set(q[0]), d[0]), _mm256_mul_ps(set(q[1]), d[1])),
             _mm256_mul_ps(set(q[2]), d[2]),
@@ -119,10 +133,10 @@ pub unsafe fn rays(frame: &Frame, col0: u32, row: u32) -> Rays {
     let hit_i = _mm256_castps_si256(hit);
     let n = _mm256_and_si256(_mm256_min_epi32(needed_i, _mm256_set1_epi32(p.max_steps as i32)), hit_i);
     let (lo, hi) = if p.bricked == 1 {
-        let (lo, hi) = brick_window(p, &d, t0, t1, shift, n);
+        let (lo, hi) = brick_window(p, &o, &d, t0, t1, shift, n);
         if frame.skip_empty && p.occupied_hi[3] == 1.0 {
             // Within the brick, only the window of its occupied cells.
-            let (olo, ohi) = occupied_window(frame, &d, t0, chord, shift, n);
+            let (olo, ohi) = occupied_window(frame, &o, &d, t0, chord, shift, n);
             let (lo, hi) = (_mm256_max_epi32(lo, olo), _mm256_min_epi32(hi, ohi));
             let empty = _mm256_cmpgt_epi32(_mm256_add_epi32(lo, _mm256_set1_epi32(1)), hi);
             (_mm256_andnot_si256(empty, lo), _mm256_andnot_si256(empty, hi))
@@ -130,12 +144,13 @@ pub unsafe fn rays(frame: &Frame, col0: u32, row: u32) -> Rays {
             (lo, hi)
         }
     } else if frame.skip_empty && p.occupied_hi[3] == 1.0 {
-        occupied_window(frame, &d, t0, chord, shift, n)
+        occupied_window(frame, &o, &d, t0, chord, shift, n)
     } else {
         (_mm256_setzero_si256(), n)
     };
     let keep = |x: __m256| _mm256_and_ps(x, hit);
     Rays {
+        o: o.map(keep),
         d: d.map(keep),
         t0: keep(t0),
         chord: keep(chord),
@@ -155,6 +170,7 @@ pub unsafe fn rays(frame: &Frame, col0: u32, row: u32) -> Rays {
 #[target_feature(enable = "avx2,fma,f16c")]
 fn brick_window(
     p: &crate::plan::params::Params,
+    o: &[__m256; 3],
     d: &[__m256; 3],
     t0: __m256,
     t1: __m256,
@@ -165,7 +181,7 @@ fn brick_window(
     let zero = _mm256_setzero_ps();
     let (mut a0, mut a1, mut outside) = (t0, t1, zero);
     for a in 0..3 {
-        let o = set(p.cam_pos[a]);
+        let o = o[a];
         let (lo, hi) = (set(p.core_lo[a]), set(p.core_hi[a]));
         let flat = _mm256_cmp_ps::<_CMP_EQ_OQ>(d[a], zero);
         let beyond = _mm256_or_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(o, lo), _mm256_cmp_ps::<_CMP_GE_OQ>(o, hi));
@@ -201,6 +217,7 @@ fn brick_window(
 #[target_feature(enable = "avx2,fma,f16c")]
 fn occupied_window(
     frame: &Frame,
+    o: &[__m256; 3],
     d: &[__m256; 3],
     t0: __m256,
     chord: __m256,
@@ -217,7 +234,7 @@ fn occupied_window(
         let (lo, hi) = (set(p.occupied_lo[2 - k]), set(p.occupied_hi[2 - k]));
         let size = set(dims[k] as f32);
         let tc = _mm256_add_ps(
-            _mm256_mul_ps(_mm256_add_ps(set(p.cam_pos[k]), _mm256_mul_ps(d[k], t0)), set(p.tex_scale[k])),
+            _mm256_mul_ps(_mm256_add_ps(o[k], _mm256_mul_ps(d[k], t0)), set(p.tex_scale[k])),
             set(p.tex_offset[k]),
         );
         let u0 = _mm256_sub_ps(_mm256_mul_ps(tc, size), set(p.border as f32));
@@ -261,9 +278,9 @@ mod tests {
 
     /// Every lane equals the scalar rule's ray bit for bit, over cameras
     /// outside, inside and grazing the box, an axis-aligned one whose middle
-    /// column's rays are parallel to two faces, crops, clip planes (one
-    /// along some rays), jitter, truncation, occupied windows and bricks'
-    /// windows.
+    /// column's rays are parallel to two faces, parallel projections, crops,
+    /// clip planes (one along some rays), jitter, truncation, occupied
+    /// windows and bricks' windows.
     #[test]
     fn lanes_are_the_scalar_rays() {
         if !crate::cpu::avx2_available() {
@@ -273,7 +290,7 @@ mod tests {
         let mut k = 0u32;
         let (mut compared, mut missed, mut truncated, mut windowed) = (0, 0, 0, 0);
         let (mut bricked, mut outside) = (0, 0);
-        for case in 0..60 {
+        for case in 0..84 {
             let v4 = |x: [f32; 3]| [x[0], x[1], x[2], 0.0];
             let mut p = Params { width: 37, height: 21, border: (case % 2), jitter_seed: case, ..Default::default() };
             let ext = [1.0, 0.6, 0.8];
@@ -294,6 +311,8 @@ mod tests {
             p.cam_up = v4((up * 0.4).into());
             p.step_size = pick(&mut k, 0.003, 0.1);
             p.max_steps = if case % 4 == 0 { 7 } else { 100_000 };
+            // Parallel rays from the camera's plane, its extents the same vectors'.
+            p.orthographic = matches!(case % 7, 3 | 5) as u32;
             let crop = case % 5 == 0;
             p.clip_lo = v4(std::array::from_fn(|a| if crop { 0.2 * ext[a] } else { 0.0 }));
             p.clip_hi = v4(std::array::from_fn(|a| if crop { 0.9 * ext[a] } else { ext[a] }));
@@ -338,6 +357,8 @@ mod tests {
                             continue;
                         };
                         assert_eq!(hits[l], u32::MAX, "case {case}, pixel ({col}, {row})");
+                        let origin: [u32; 3] = std::array::from_fn(|a| lanes(r.o[a])[l]);
+                        assert_eq!(origin, w.o.map(f32::to_bits), "case {case}, pixel ({col}, {row}) origin");
                         let got = (
                             std::array::from_fn::<u32, 3, _>(|a| lanes(r.d[a])[l]),
                             [lanes(r.t0)[l], lanes(r.chord)[l], lanes(r.shift)[l]],

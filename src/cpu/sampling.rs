@@ -280,7 +280,7 @@ impl Texels for R32Float<'_> {
 pub(super) fn voxel_axes(p: &Params, rays: &super::rays8::Rays, dims: [usize; 3]) -> ([__m256; 3], [__m256; 3]) {
     let set = _mm256_set1_ps;
     let start = std::array::from_fn(|k| {
-        let at = _mm256_add_ps(set(p.cam_pos[k]), _mm256_mul_ps(rays.d[k], rays.t0));
+        let at = _mm256_add_ps(rays.o[k], _mm256_mul_ps(rays.d[k], rays.t0));
         let tc = _mm256_add_ps(_mm256_mul_ps(at, set(p.tex_scale[k])), set(p.tex_offset[k]));
         _mm256_sub_ps(_mm256_mul_ps(tc, set(dims[k] as f32)), set(0.5))
     });

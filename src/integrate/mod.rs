@@ -286,7 +286,8 @@ pub fn render_image_interruptible(frame: &Frame, stop: &mut dyn FnMut(usize) -> 
                         .map(|col| {
                             let row = row as u32;
                             let shift = if cfg.jitter { jitter_shift(col, row, cfg.jitter_seed) as f64 } else { 0.0 };
-                            trace(frame, basis.origin, basis.direction(col, row, frame.width, frame.height), shift)
+                            let (origin, dir) = basis.ray(col, row, frame.width, frame.height);
+                            trace(frame, origin, dir, shift)
                         })
                         .collect();
                     *rows[row].lock().unwrap_or_else(|p| p.into_inner()) = results;

@@ -15,7 +15,13 @@ fn ambient_frame<'a>(volume: VolumeView<'a>, lut: &'a [[f32; 4]], cfg: RenderCon
     Frame {
         volume,
         lut,
-        camera: Camera { position: DVec3::new(3.0, 0.0, 0.0), target: DVec3::ZERO, up: DVec3::Z, fov_y: 0.5 },
+        camera: Camera {
+            position: DVec3::new(3.0, 0.0, 0.0),
+            target: DVec3::ZERO,
+            up: DVec3::Z,
+            fov_y: 0.5,
+            view_height: None,
+        },
         light: Light { ambient: 1.0, diffuse: 0.0, kind: LightKind::Directional, ..Light::default() },
         config: cfg,
         width: 1,

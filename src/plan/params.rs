@@ -112,6 +112,12 @@ uniform_block! {
         pub value_prescale: f32,
         /// Planes in use, the first `clip_count` of `clip_planes`.
         pub clip_count: u32,
+        /// 1: parallel rays, pixel (x, y)'s from `cam_pos + X cam_right + Y
+        /// cam_up` along `cam_fwd`; 0: every ray from `cam_pos`.
+        pub orthographic: u32,
+        pub plan_pad0: u32,
+        pub plan_pad1: u32,
+        pub plan_pad2: u32,
         /// Clip planes as (n, c): rays march where `n · p + c >= 0` (p in
         /// this block's frame, n unit).
         pub clip_planes: [[f32; 4]; MAX_CLIP_PLANES],
@@ -188,8 +194,9 @@ impl Params {
         Params {
             cam_pos: v4((basis.origin - b.min) * s),
             cam_fwd: v4(basis.forward),
-            cam_right: v4(basis.right),
-            cam_up: v4(basis.up),
+            // Parallel rays' offsets are lengths, in the block's units too.
+            cam_right: v4(basis.right * if basis.orthographic { s } else { 1.0 }),
+            cam_up: v4(basis.up * if basis.orthographic { s } else { 1.0 }),
             extent: v4(ext),
             inv_extent: v4(1.0 / ext),
             inv_two_spacing: v4(0.5 / spacing),
@@ -237,6 +244,10 @@ impl Params {
             tile_y: 0,
             value_prescale,
             clip_count: f.planes.len().min(MAX_CLIP_PLANES) as u32,
+            orthographic: basis.orthographic as u32,
+            plan_pad0: 0,
+            plan_pad1: 0,
+            plan_pad2: 0,
             clip_planes: std::array::from_fn(|k| f.planes.get(k).map_or([0.0; 4], |q| plane_in_block(q, &b, s))),
         }
     }

@@ -36,7 +36,13 @@ fn clip_bounds((lo, hi): (Vec3, Vec3)) -> PyResult<Bounds> {
     Bounds::new(DVec3::from(lo), DVec3::from(hi)).map_err(|e| to_py_in("crop box", e))
 }
 /// (position, target, up, vertical fov in radians)
-type CameraArgs = (Vec3, Vec3, Vec3, f64);
+/// (position, target, up, fov), and for an orthographic camera its view
+/// height as a fifth number (0: perspective).
+#[derive(FromPyObject)]
+pub enum CameraArgs {
+    Orthographic((Vec3, Vec3, Vec3, f64, f64)),
+    Perspective((Vec3, Vec3, Vec3, f64)),
+}
 /// (position, target, ambient, diffuse, "directional" | "point")
 type LightArgs = (Vec3, Vec3, f64, f64, String);
 
@@ -45,8 +51,12 @@ fn dv(v: Vec3) -> DVec3 {
 }
 
 pub fn camera_from(c: &CameraArgs) -> Camera {
-    let (position, target, up, fov) = *c;
-    Camera { position: dv(position), target: dv(target), up: dv(up), fov_y: fov }
+    let ((position, target, up, fov), height) = match *c {
+        CameraArgs::Orthographic((p, t, u, f, h)) => ((p, t, u, f), h),
+        CameraArgs::Perspective(args) => (args, 0.0),
+    };
+    let view_height = (height != 0.0).then_some(height);
+    Camera { position: dv(position), target: dv(target), up: dv(up), fov_y: fov, view_height }
 }
 
 pub fn light_from(l: &LightArgs) -> PyResult<Light> {

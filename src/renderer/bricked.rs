@@ -31,7 +31,7 @@ use glam::DVec3;
 
 /// The pixels whose rays can cross `b`: the bounding rectangle of its
 /// corners' projections, a pixel wider on each side for rounding; None
-/// (every pixel) when a corner is not in front of the eye.
+/// (every pixel) when a corner is not in front of the eye (perspective).
 fn screen_rect(basis: &RayBasis, b: &Bounds, width: u32, height: u32) -> Option<Rect> {
     let (r2, u2) = (basis.right.length_squared(), basis.up.length_squared());
     let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
@@ -42,8 +42,9 @@ fn screen_rect(basis: &RayBasis, b: &Bounds, width: u32, height: u32) -> Option<
             if k & 4 == 0 { b.min.z } else { b.max.z },
         );
         let v = c - basis.origin;
-        let z = v.dot(basis.forward);
-        if !(z > 1e-9 * v.length()) {
+        // Parallel rays: a point's pixel does not depend on its depth.
+        let z = if basis.orthographic { 1.0 } else { v.dot(basis.forward) };
+        if !basis.orthographic && !(z > 1e-9 * v.length()) {
             return None;
         }
         // Pixel coordinates of the ray through c (pixel i's centre at i + 1/2).
@@ -260,7 +261,7 @@ impl Renderer {
         let params = Params { keep_state: keep_state as u32, ..Params::new(&inputs, &basis, light, cfg) };
         // The eye in continuous voxel coordinates.
         let dims = DVec3::new(b.grid.dims[0] as f64, b.grid.dims[1] as f64, b.grid.dims[2] as f64);
-        let eye = (camera.position - b.bounds.min) / b.bounds.extent() * dims;
+        let eye = (camera.ordering_eye(&b.bounds) - b.bounds.min) / b.bounds.extent() * dims;
         // (Bricks loaded while the native march was off keep no texels for it.)
         let native =
             self.native_bricks(cfg) && b.slots.iter().all(|s| s.volume.as_ref().is_none_or(|v| v.cpu.is_some()));

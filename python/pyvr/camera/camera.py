@@ -3,7 +3,7 @@
 import json
 import warnings
 from dataclasses import dataclass, field
-from typing import Dict, Tuple
+from typing import Dict, Optional, Tuple
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -36,6 +36,9 @@ def radians_to_degrees(**kwargs) -> Dict[str, float]:
     return {k: np.degrees(v) for k, v in kwargs.items()}
 
 
+PROJECTIONS = ("perspective", "orthographic")
+
+
 def _f32(v):
     return np.array(v, dtype=np.float32)
 
@@ -59,6 +62,8 @@ class Camera:
     fov: float = np.pi / 4
     near_plane: float = 0.1
     far_plane: float = 100.0
+    projection: str = "perspective"
+    view_height: Optional[float] = None
 
     def __post_init__(self):
         self.validate()
@@ -95,6 +100,21 @@ class Camera:
             raise ValueError("near_plane must be positive")
         if not is_number(self.far_plane) or not self.far_plane > self.near_plane:
             raise ValueError("far_plane must be greater than near_plane")
+        if self.projection not in PROJECTIONS:
+            raise ValueError(f"projection must be one of {', '.join(PROJECTIONS)}, got {self.projection!r}")
+        if self.view_height is not None and not (
+                is_number(self.view_height) and 0 < self.view_height < np.inf):
+            raise ValueError(f"view_height must be a finite number > 0 or None, got {self.view_height!r}")
+
+    @property
+    def orthographic_height(self) -> float:
+        """The world height an orthographic view of this camera shows:
+        ``view_height``, or by default the height the perspective view shows
+        at the target (``2 distance tan(fov / 2)``), so that switching the
+        projection keeps what is at the target the same size."""
+        if self.view_height is not None:
+            return float(self.view_height)
+        return float(2.0 * self.distance * np.tan(0.5 * self.fov))
 
     @classmethod
     def from_spherical(cls, target, azimuth, elevation, roll, distance, **kwargs) -> "Camera":
@@ -133,12 +153,16 @@ class Camera:
 
     @classmethod
     def fit(cls, volume, *, azimuth: float = 0.0, elevation: float = 0.0, roll: float = 0.0,
-            fov: float = np.pi / 4, aspect: float = 1.0, margin: float = 1.05) -> "Camera":
+            fov: float = np.pi / 4, aspect: float = 1.0, margin: float = 1.05,
+            projection: str = "perspective") -> "Camera":
         """A camera aimed at the centre of ``volume`` (a Volume, or a
         ``(min_bounds, max_bounds)`` pair) from the given angles, far enough
         that the box's bounding sphere fits the view with ``margin`` to spare,
         in an image ``aspect`` = width / height. Works at any scale: a CT in
-        millimetres is framed as well as pyvr's [-1, 1] box."""
+        millimetres is framed as well as pyvr's [-1, 1] box. With
+        ``projection="orthographic"`` the view's height is chosen so that
+        the sphere fits (the camera stands as far off as for perspective,
+        outside the sphere)."""
         if hasattr(volume, "min_bounds") and hasattr(volume, "max_bounds"):
             lo, hi = volume.min_bounds, volume.max_bounds
         else:
@@ -154,10 +178,14 @@ class Camera:
             raise ValueError(f"aspect and margin must be positive numbers, got {aspect!r} and {margin!r}")
         if not (is_number(fov) and 0 < fov < np.pi):
             raise ValueError("fov must be between 0 and π radians")
+        if projection not in PROJECTIONS:
+            raise ValueError(f"projection must be one of {', '.join(PROJECTIONS)}, got {projection!r}")
         centre = 0.5 * (lo + hi)
         radius = 0.5 * float(np.linalg.norm(hi - lo))
         half = min(0.5 * fov, np.arctan(aspect * np.tan(0.5 * fov)))
         distance = margin * radius / np.sin(half)
+        # The sphere's diameter fits the height and the width (aspect times it).
+        height = 2.0 * margin * radius * max(1.0, 1.0 / aspect) if projection == "orthographic" else None
         return cls(
             target=centre.astype(np.float32),
             azimuth=azimuth,
@@ -168,6 +196,8 @@ class Camera:
             fov=fov,
             near_plane=float(min(0.1, 0.01 * distance)),
             far_plane=float(max(100.0, 2.0 * (distance + radius))),
+            projection=projection,
+            view_height=height,
         )
 
     def to_dict(self) -> dict:
@@ -184,6 +214,8 @@ class Camera:
             "fov": float(self.fov),
             "near_plane": float(self.near_plane),
             "far_plane": float(self.far_plane),
+            "projection": self.projection,
+            "view_height": None if self.view_height is None else float(self.view_height),
         }
 
     @classmethod
@@ -200,6 +232,8 @@ class Camera:
             fov=data.get("fov", np.pi / 4),
             near_plane=data.get("near_plane", 0.1),
             far_plane=data.get("far_plane", 100.0),
+            projection=data.get("projection", "perspective"),
+            view_height=data.get("view_height"),
         )
 
     def save_to_file(self, filepath) -> None:
@@ -244,10 +278,22 @@ class Camera:
         return m.astype(np.float32)
 
     def get_projection_matrix(self, aspect_ratio: float) -> np.ndarray:
-        """The 4x4 OpenGL-style perspective matrix for ``aspect_ratio`` (width /
-        height), from ``fov`` and the near and far planes."""
-        f = 1.0 / np.tan(self.fov / 2.0)
+        """The 4x4 OpenGL-style projection matrix for ``aspect_ratio`` (width /
+        height): perspective from ``fov``, or orthographic over
+        :attr:`orthographic_height`, with the near and far planes."""
         n, fa = self.near_plane, self.far_plane
+        if self.projection == "orthographic":
+            top = 0.5 * self.orthographic_height
+            return np.array(
+                [
+                    [1 / (aspect_ratio * top), 0, 0, 0],
+                    [0, 1 / top, 0, 0],
+                    [0, 0, 2 / (n - fa), (fa + n) / (n - fa)],
+                    [0, 0, 0, 1],
+                ],
+                dtype=np.float32,
+            )
+        f = 1.0 / np.tan(self.fov / 2.0)
         return np.array(
             [
                 [f / aspect_ratio, 0, 0, 0],
@@ -264,7 +310,9 @@ class Camera:
             f"azimuth={self.azimuth:.3f} rad ({np.degrees(self.azimuth):.1f}°), "
             f"elevation={self.elevation:.3f} rad ({np.degrees(self.elevation):.1f}°), "
             f"roll={self.roll:.3f} rad ({np.degrees(self.roll):.1f}°), "
-            f"distance={self.distance:.2f})"
+            f"distance={self.distance:.2f}"
+            + ("" if self.projection == "perspective" else f", orthographic, height {self.orthographic_height:.3g}")
+            + ")"
         )
 
 

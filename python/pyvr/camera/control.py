@@ -168,6 +168,10 @@ class CameraPath:
             fov=lerp(a.fov, b.fov, lt),
             near_plane=lerp(a.near_plane, b.near_plane, lt),
             far_plane=lerp(a.far_plane, b.far_plane, lt),
+            # A change of projection happens halfway; heights interpolate.
+            projection=a.projection if lt < 0.5 else b.projection,
+            view_height=None if a.view_height is None and b.view_height is None
+            else lerp(a.orthographic_height, b.orthographic_height, lt),
         )
 
     def generate_frames(self, n_frames: int) -> List[Camera]:
@@ -197,7 +201,11 @@ class CameraController:
         [0.01, 1000]."""
         if factor <= 0:
             raise ValueError("Zoom factor must be positive")
+        before = self.params.distance
         self.params.distance = np.clip(self.params.distance * factor, 0.01, 1000.0)
+        if self.params.view_height is not None:
+            # An orthographic view's height follows, as a perspective view's does.
+            self.params.view_height = float(self.params.view_height * self.params.distance / before)
 
     def trackball(self, dx, dy, viewport_width, viewport_height, sensitivity: float = 1.0) -> None:
         """Rotate as if dragging a ball under the mouse: a drag of (``dx``, ``dy``)
@@ -262,7 +270,9 @@ class CameraController:
         if preset not in presets:
             raise ValueError(f"Unknown preset: {preset}. Available: {list(presets)}")
         d = self.params.distance if distance is None else distance
+        kept = (self.params.projection, self.params.view_height)
         self.params = presets[preset](target=np.array(self.params.target, copy=True), distance=d)
+        self.params.projection, self.params.view_height = kept
 
     def get_position_and_up(self):
         """``(position, up)`` of the current camera, as float32 3-vectors."""

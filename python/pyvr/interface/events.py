@@ -164,15 +164,29 @@ class EventHandlers:
         action = {
             "r": self._reset_view, "s": self._save_image, "f": self._toggle_fps, "h": self._toggle_histogram,
             "l": self._toggle_light_link, "q": self._toggle_auto_quality, "t": self._toggle_control_mode,
+            "o": self._toggle_projection,
             "escape": self._deselect, "delete": self._delete_selected, "backspace": self._delete_selected,
         }.get(event.key)
         if action is not None:
             action()
 
     def _reset_view(self) -> None:
+        projection = self.camera_controller.params.projection
         self.camera_controller.params = _home_camera(self.volume)
+        self.camera_controller.params.projection = projection
         self.state.needs_render = True
         self._update_display(force_render=True)
+
+    def _toggle_projection(self) -> None:
+        # The orthographic view's height follows the distance (view_height
+        # None): the target keeps its size, and the wheel zooms either view.
+        cam = self.camera_controller.params
+        cam.projection = "perspective" if cam.projection == "orthographic" else "orthographic"
+        cam.view_height = None
+        print(f"{cam.projection.capitalize()} projection")
+        self.state.needs_render = True
+        self._update_display(force_render=True)
+        self._update_status_display()
 
     def _toggle_fps(self) -> None:
         self.state.show_fps = not self.state.show_fps
