@@ -247,7 +247,7 @@ def test_core_rejects_bad_arguments_with_python_errors():
         r.render(((0, 0, 0),) + cam[1:], light, args[2])
     with pytest.raises(ValueError, match="finite"):
         r.render(((np.nan, 0, 0),) + cam[1:], light, args[2])
-    with pytest.raises(ValueError, match="tuple of length 4"):
+    with pytest.raises(TypeError, match="tuple of length 4"):
         r.render((1, 2), light, args[2])
     img, stats = r.render(*args)
     assert img.shape == (4, 4, 4) and stats["truncated_needed"] == 0

@@ -252,6 +252,14 @@ impl Params {
         }
     }
 
+    /// The bytes of the block a frame uploads: all but the clip planes it
+    /// does not use (the shader reads only the first `clip_count`).
+    pub fn used_bytes(&self) -> &[u8] {
+        let planes = std::mem::offset_of!(Params, clip_planes);
+        let used = planes + self.clip_count as usize * std::mem::size_of::<[f32; 4]>();
+        &bytemuck::bytes_of(self)[..used.min(std::mem::size_of::<Params>())]
+    }
+
     /// The block with the box of occupied cells `cells` (inclusive cell
     /// indices per numpy axis) of a grid of `dims` cells, BLOCK voxels a
     /// side. A face on the grid's boundary moves out past any ray's reach
@@ -335,6 +343,16 @@ mod tests {
             assert!((product - scale).abs() <= scale.abs() * 1e-7, "{scale}: {product}");
         }
         assert_eq!(split_scale(2.5), (1.0, 2.5));
+    }
+
+    #[test]
+    fn a_frame_uploads_only_the_planes_it_uses() {
+        let mut p = Params::default();
+        let head = std::mem::size_of::<Params>() - MAX_CLIP_PLANES * 16;
+        assert_eq!(p.used_bytes().len(), head);
+        p.clip_count = 3;
+        assert_eq!(p.used_bytes().len(), head + 48);
+        assert_eq!(head % 16, 0, "a prefix the queue can write (4-byte multiple) and the WGSL struct's layout");
     }
 
     #[test]

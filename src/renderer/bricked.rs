@@ -474,7 +474,7 @@ impl Renderer {
         let (truncated_needed, samples) = self.read_image(&mut Target::floats(out, w, h, Format::PREMULTIPLIED))?;
         self.depth_ready = frame.cfg.model == Model::Isosurface;
         self.depth_unit = world_unit(&bounds);
-        let uniforms = (frame.dispatched as u64 + 1) * std::mem::size_of::<Params>() as u64 + STATS_BYTES;
+        let uniforms = (frame.dispatched as u64 + 1) * frame.params.used_bytes().len() as u64 + STATS_BYTES;
         let stats =
             FrameStats { truncated_needed, uploaded_bytes: 0, passes: frame.dispatched + 1, samples, native: false };
         Ok(self.finish_frame(stats, uniforms))

@@ -84,7 +84,7 @@ impl Renderer {
         self.depth_ready = cfg.model == Model::Isosurface;
         self.depth_unit = world_unit(&self.volume.as_ref().expect("checked by check_ready").bounds);
         self.measure_speed(passes.planned_samples, started.elapsed());
-        let uniforms = passes.passes as u64 * std::mem::size_of::<Params>() as u64 + STATS_BYTES;
+        let uniforms = passes.passes as u64 * params.used_bytes().len() as u64 + STATS_BYTES;
         let stats = FrameStats { truncated_needed, uploaded_bytes: 0, passes: passes.passes, samples, native: false };
         Ok(self.finish_frame(stats, uniforms))
     }
@@ -474,7 +474,7 @@ impl Renderer {
                 ..params
             };
             // Writes before a submit are ordered with it: each pass sees its own.
-            ctx.queue.write_buffer(&f.uniform, 0, bytemuck::bytes_of(&p));
+            ctx.queue.write_buffer(&f.uniform, 0, p.used_bytes());
             let submitted = ctx.scoped("rendering", || {
                 let mut enc =
                     ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
