@@ -103,6 +103,7 @@ impl Default for RayResult {
 mod compositing;
 mod lighting;
 mod optics;
+mod pick;
 mod projections;
 #[cfg(test)]
 mod tests;
@@ -110,6 +111,7 @@ mod tests;
 use compositing::integrate;
 pub use lighting::light_transmittance;
 pub use optics::{corrected_alpha, extinction, max_extinction, one_minus_exp_neg, SHADOW_TAU_MAX};
+pub use pick::pick;
 use projections::{isosurface, project};
 
 /// Segments a chord of `len` needs when the grid starts `shift` steps

@@ -3,6 +3,7 @@
 mod args;
 mod config;
 mod errors;
+mod pick;
 mod renderer;
 mod transfer;
 
@@ -73,6 +74,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(renderer::brick_ghost, m)?)?;
     m.add_function(wrap_pyfunction!(renderer::brick_layout, m)?)?;
     m.add_function(wrap_pyfunction!(renderer::integrate_reference, m)?)?;
+    m.add_function(wrap_pyfunction!(pick::pick_reference, m)?)?;
     m.add_function(wrap_pyfunction!(transfer::colormap_table, m)?)?;
     m.add_function(wrap_pyfunction!(transfer::colormap_names, m)?)?;
     m.add_function(wrap_pyfunction!(device_info, m)?)?;

@@ -6,6 +6,7 @@
 use super::args::integer;
 use super::config::PyRenderConfig;
 use super::errors::{guarded, run_released, to_py, to_py_in};
+use crate::config::RenderConfig;
 use crate::error::{try_collect, try_zeroed};
 use crate::integrate::{self, Frame};
 use crate::output::{Format, Image, Pixels};
@@ -22,7 +23,7 @@ use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-type Vec3 = (f64, f64, f64);
+pub type Vec3 = (f64, f64, f64);
 
 fn clip_planes(planes: Option<Vec<(Vec3, Vec3)>>) -> PyResult<Vec<ClipPlane>> {
     planes
@@ -44,7 +45,7 @@ pub enum CameraArgs {
     Perspective((Vec3, Vec3, Vec3, f64)),
 }
 /// (position, target, ambient, diffuse, "directional" | "point")
-type LightArgs = (Vec3, Vec3, f64, f64, String);
+pub type LightArgs = (Vec3, Vec3, f64, f64, String);
 
 fn dv(v: Vec3) -> DVec3 {
     DVec3::new(v.0, v.1, v.2)
@@ -111,7 +112,7 @@ impl<'py> VoxelArray<'py> {
 }
 
 /// Checks and borrows a volume from numpy arrays for the duration of `f`.
-fn with_volume<R>(
+pub(super) fn with_volume<R>(
     data: &Bound<'_, PyAny>,
     normals: &Option<PyReadonlyArray4<'_, f32>>,
     min_bounds: Vec3,
@@ -558,6 +559,64 @@ pub fn convert<'py>(
     image_array(py, image)
 }
 
+/// What an f64 reference frame takes from its Python arguments besides the
+/// volume, checked.
+pub(super) struct ReferenceScene {
+    rows: Vec<[f32; 4]>,
+    value_map: ValueMap,
+    clip: Option<Bounds>,
+    planes: Vec<ClipPlane>,
+    config: RenderConfig,
+    camera: Camera,
+    light: Light,
+}
+
+impl ReferenceScene {
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn new(
+        lut: &PyReadonlyArray2<'_, f32>,
+        camera: &CameraArgs,
+        light: &LightArgs,
+        config: &PyRenderConfig,
+        order: Option<&str>,
+        value_map: (f64, f64),
+        clip: Option<(Vec3, Vec3)>,
+        planes: Option<Vec<(Vec3, Vec3)>>,
+    ) -> PyResult<Self> {
+        let mut cfg = config.inner;
+        if let Some(o) = order {
+            cfg.order = crate::model::Order::parse(o).map_err(to_py)?;
+        }
+        cfg.validate().map_err(to_py)?;
+        Ok(ReferenceScene {
+            rows: lut_rows(lut)?,
+            value_map: ValueMap::new(value_map.0, value_map.1).map_err(PyValueError::new_err)?,
+            clip: clip.map(clip_bounds).transpose()?,
+            planes: clip_planes(planes)?,
+            config: cfg,
+            camera: camera_from(camera),
+            light: light_from(light)?,
+        })
+    }
+
+    pub(super) fn frame<'a>(&'a self, volume: VolumeView<'a>, width: u32, height: u32, tolerance: f64) -> Frame<'a> {
+        Frame {
+            volume,
+            lut: &self.rows,
+            camera: self.camera,
+            light: self.light,
+            config: self.config,
+            width,
+            height,
+            adaptive_tolerance: tolerance,
+            value_map: self.value_map,
+            clip: self.clip,
+            planes: &self.planes,
+            slopes: None,
+        }
+    }
+}
+
 /// The f64 integrator: the same frame as the GPU renders, in double
 /// precision. Returns float64 (H, W, 4) premultiplied RGBA (row 0 at the
 /// bottom), the largest step count a truncated ray needed, and float64
@@ -593,35 +652,12 @@ pub fn integrate_reference<'py>(
             "adaptive_tolerance must be a finite number >= 0, got {adaptive_tolerance}"
         )));
     }
-    let rows = lut_rows(&lut)?;
-    let value_map = ValueMap::new(value_map.0, value_map.1).map_err(PyValueError::new_err)?;
-    let clip = clip.map(clip_bounds).transpose()?;
-    let planes = clip_planes(planes)?;
-    let mut cfg = config.inner;
-    if let Some(o) = order {
-        cfg.order = crate::model::Order::parse(o).map_err(to_py)?;
-    }
-    cfg.validate().map_err(to_py)?;
-    let camera = camera_from(&camera);
-    let light = light_from(&light)?;
+    let scene = ReferenceScene::new(&lut, &camera, &light, &config, order, value_map, clip, planes)?;
     // The progress callback runs Python code, where a Ctrl-C's
     // KeyboardInterrupt may surface: it stops the frame and is raised.
     let mut raised_in_progress: Option<PyErr> = None;
     let result = with_volume(data, &normals, min_bounds, max_bounds, |volume| {
-        let frame = Frame {
-            volume,
-            lut: &rows,
-            camera,
-            light,
-            config: cfg,
-            width,
-            height,
-            adaptive_tolerance,
-            value_map,
-            clip,
-            planes: &planes,
-            slopes: None,
-        };
+        let frame = scene.frame(volume, width, height, adaptive_tolerance);
         run_released(py, |stop| {
             integrate::render_image_interruptible(&frame, &mut |rows| {
                 if let Some(report) = &progress {
