@@ -1,8 +1,10 @@
-"""What clip planes cost a frame: the preset benchmark's scene
-(examples/benchmark.py: 256^3, 512x512, lit, balanced) with no planes, with
-1 and with 16 planes that keep the whole volume (the same samples: what is
-left is the planes' own cost, once per camera ray), and with one plane that
-cuts the volume in half (fewer samples). Each engine present here (the
+"""What clip planes and an opaque scene's depth cost a frame: the preset
+benchmark's scene (examples/benchmark.py: 256^3, 512x512, lit, balanced)
+with no planes, with 1 and with 16 planes that keep the whole volume (the
+same samples: what is left is the planes' own cost, once per camera ray),
+with one plane that cuts the volume in half (fewer samples), and with a
+depth image (render(depth=)) that stops no ray and one that stops every
+ray at the camera's distance. Each engine present here (the
 native march, and the shader where a Vulkan adapter opens); cases take
 turns within each round, and the table gives medians over --rounds rounds
 and each case's time as a ratio to no planes from the same run.
@@ -15,6 +17,8 @@ import os
 import statistics
 import sys
 import time
+
+import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
@@ -33,10 +37,12 @@ AROUND = [((-2.0 * x, -2.0 * y, -2.0 * z), (x, y, z))
                           (1, 1, 0), (1, -1, 0), (-1, 1, 0), (-1, -1, 0), (0, 1, 1), (0, 1, -1),
                           (0, -1, 1), (0, -1, -1), (1, 0, 1), (1, 0, -1)]]
 CASES = {
-    "none": [],
-    "1 keeping all": AROUND[:1],
-    "16 keeping all": AROUND,
-    "1 cutting half": [((0.0, 0.0, 0.0), (1.0, 0.3, 0.2))],
+    "none": ([], None),
+    "1 keeping all": (AROUND[:1], None),
+    "16 keeping all": (AROUND, None),
+    "1 cutting half": ([((0.0, 0.0, 0.0), (1.0, 0.3, 0.2))], None),
+    "depth image, no surface": ([], np.inf),
+    "depth image at the target": ([], 3.0),
 }
 
 
@@ -56,14 +62,15 @@ def main() -> int:
         r.set_transfer_functions(ctf, otf)
         times = {name: [] for name in CASES}
         samples = {}
-        for planes in CASES.values():  # warm each case once
+        depths = {name: None if d is None else np.full((args.size, args.size), d) for name, (_, d) in CASES.items()}
+        for name, (planes, _) in CASES.items():  # warm each case once
             r.set_clip_planes(planes)
-            r.render()
+            r.render(depth=depths[name])
         for _ in range(args.rounds):
-            for name, planes in CASES.items():
+            for name, (planes, _) in CASES.items():
                 r.set_clip_planes(planes)
                 t = time.perf_counter()
-                r.render()
+                r.render(depth=depths[name])
                 times[name].append(time.perf_counter() - t)
                 samples[name] = r.last_frame_stats["samples"]
                 assert r.last_frame_stats["engine"] == ("native" if engine == "native" else "gpu")
@@ -73,7 +80,7 @@ def main() -> int:
             rows.append([engine, name, round(ms * 1000, 1), round(ms / base, 3), samples[name]])
             print(*rows[-1], flush=True)
     write_table("clip_planes", f"python benches/clip_planes.py --rounds {args.rounds} --size {args.size}",
-                ["engine", "planes", "ms (median)", "ratio to none", "samples"], rows,
+                ["engine", "case", "ms (median)", "ratio to none", "samples"], rows,
                 device=VolumeRenderer(8, 8).device)
     return 0
 

@@ -84,7 +84,8 @@ struct Params {
     clip_count: u32,
     // 1: parallel rays from cam_pos + X cam_right + Y cam_up along cam_fwd.
     orthographic: u32,
-    plan_pad0: u32,
+    // 1: each ray stops at its pixel's texel of depth_in.
+    depth_in: u32,
     plan_pad1: u32,
     plan_pad2: u32,
     clip_planes: array<vec4<f32>, MAX_CLIP_PLANES>,
@@ -114,3 +115,6 @@ struct Params {
 // value; rgb = premultiplied colour, a = optical depth of one full step. Its
 // last row is the transfer-function table (compositing.wgsl, preint_lut_uv).
 @group(0) @binding(BINDING_PREINT) var preint: texture_2d<f32>;
+// Per pixel (row 0 at the bottom): where an opaque scene stops the ray, as
+// a ray parameter (read when P.depth_in == 1).
+@group(0) @binding(BINDING_DEPTH_IN) var opaque_depth: texture_2d<f32>;

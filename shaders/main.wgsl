@@ -63,6 +63,9 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
             hit = false;
         }
     }
+    if (P.depth_in == 1u) {
+        t1 = min(t1, textureLoad(opaque_depth, vec2<i32>(gid), 0).r);
+    }
     var r: Ray;
     r.idx = idx;
     if (!hit || t0 > t1 || t1 <= 0.0) {

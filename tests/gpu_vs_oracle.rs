@@ -89,6 +89,7 @@ fn base_frame<'a>(vol: VolumeView<'a>, lut: &'a [[f32; 4]]) -> Frame<'a> {
         value_map: ValueMap::IDENTITY,
         clip: None,
         planes: &[],
+        depth_in: None,
         slopes: None,
     }
 }

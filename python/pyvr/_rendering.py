@@ -26,6 +26,7 @@ from ._frames import (
     output_image,
 )
 from ._numbers import check_count
+from ._opaque import opaque_scene
 from ._scene import _camera_tuple, _check_size, _path_cameras
 from ._storage import prepare_normals, prepare_voxels
 from ._threads import _serialised
@@ -118,7 +119,7 @@ class FrameRendering:
 
     def render(self, *, dtype=np.uint8, premultiplied: bool = False, origin: str = "lower",
                background=None, size: Optional[tuple] = None, config: Optional[RenderConfig] = None,
-               accumulate: int = 1) -> np.ndarray:
+               accumulate: int = 1, depth=None, color=None) -> np.ndarray:
         """Render a frame as a C-contiguous (H, W, 4) array.
 
         dtype: np.uint8 (default) or np.float32. premultiplied: return colour
@@ -141,6 +142,16 @@ class FrameRendering:
         jittered frames, whose mean converges to the mean over sample
         offsets instead (docs/rendering.md). It costs n frames; Ctrl-C
         stops it.
+        depth, color: an opaque scene drawn by another renderer (meshes,
+        slices) that the volume surrounds. ``depth`` (H, W) holds, for each
+        pixel, the world distance along its ray (from the camera; for an
+        orthographic camera from its plane) to the scene's surface, inf
+        where there is none (``pyvr.scene_depth`` converts a rasteriser's
+        depth buffer); rows in ``origin``'s order. Each ray stops there, the
+        segment it cuts counted with its length. ``color`` (H, W, 3) in
+        [0, 1] (or uint8) is the scene's colour: the volume in front is
+        composited over it where the depth is finite (opaque there). Without
+        ``color`` the frame is the volume in front of the scene alone.
         """
         bg = None if background is None else _colour(background)
         if origin not in ("lower", "upper"):
@@ -154,6 +165,16 @@ class FrameRendering:
                 raise TypeError(f"Expected RenderConfig instance, got {type(config)}")
             config.validate()
         n = check_count("accumulate", accumulate, high=1 << 16)
+        if depth is not None or color is not None:
+            w, h = (self.width, self.height) if size is None else size
+            scene = opaque_scene(depth, color, w, h, origin)
+            with self._lock:
+                self._engine.set_depth_in(scene.depth32)
+                try:
+                    img = self._render_frame(size, config) if n == 1 else self._accumulated(size, config, n)
+                finally:
+                    self._engine.set_depth_in(None)
+            return output_image(scene.under(img), dt, premultiplied, bg, origin)
         if n == 1:
             return self._render_frame(size, config, (dt, premultiplied, bg, origin))
         return output_image(self._accumulated(size, config, n), dt, premultiplied, bg, origin)
@@ -179,7 +200,8 @@ class FrameRendering:
 
     def render_float64(self, *, config: Optional[RenderConfig] = None, premultiplied: bool = False,
                        origin: str = "lower", order: Optional[str] = None,
-                       size: Optional[tuple] = None, adaptive_tolerance: float = 0.0, progress=None) -> np.ndarray:
+                       size: Optional[tuple] = None, adaptive_tolerance: float = 0.0, progress=None,
+                       depth=None, color=None) -> np.ndarray:
         """The same frame from the float64 CPU integrator (the engine's oracle).
 
         Slow (CPU, one thread per core); meant for checking accuracy, e.g.
@@ -199,6 +221,7 @@ class FrameRendering:
         ``progress``: a tqdm bar of rows (True), none (False), or by default
         one for frames estimated at more than 2e8 samples when tqdm is
         installed. Ctrl-C stops the work (KeyboardInterrupt).
+        ``depth`` and ``color``: an opaque scene, as :meth:`render` takes it.
         """
         if self.volume is None:
             raise RuntimeError("no volume loaded: call load_volume() before render_float64()")
@@ -229,13 +252,14 @@ class FrameRendering:
                    "render a smaller size=(width, height)")
         samples = _frame_samples(self._bounds, cfg, width, height) * (8 if adaptive_tolerance > 0 else 1)
         _warn_if_long("render_float64", samples, LONG_FLOAT64_SAMPLES, stacklevel=2)
+        scene = None if depth is None and color is None else opaque_scene(depth, color, width, height, origin)
         make_bar = _progress(progress if progress is not None or samples > 2e8 else False, "row", "render_float64")
         bar = None if make_bar is None else make_bar(height)
         try:
-            img, _, depth = _core.integrate_reference(
+            img, _, hits = _core.integrate_reference(
                 prepare_voxels(self.volume.data), prepare_normals(self.volume.normals), *self._bounds, self._lut,
                 camera, self._light_args, cfg, width, height, order, float(adaptive_tolerance),
-                self._value_map, self._crop, list(self._planes),
+                self._value_map, self._crop, list(self._planes), None if scene is None else scene.depth64,
                 None if bar is None else (lambda rows: bar.update(rows - bar.n)),
             )
             if bar is not None:
@@ -243,7 +267,9 @@ class FrameRendering:
         finally:
             if bar is not None:
                 bar.close()
-        self.last_float64_depth = depth
+        self.last_float64_depth = hits
+        if scene is not None:
+            img = scene.under(img)
         if not premultiplied:
             img[..., :3] = _straight(img)
         return np.ascontiguousarray(img[::-1]) if origin == "upper" else img

@@ -96,6 +96,9 @@ pub use crate::model::Model;
 pub struct Frame<'a> {
     /// The uniform block the shader would read (one pass, not bricked).
     pub params: &'a Params,
+    /// Per pixel (row 0 at the bottom), the ray parameter in the block's
+    /// units where an opaque surface stops the ray (infinity: none).
+    pub depth_in: Option<&'a [f32]>,
     pub volume: &'a CpuVolume,
     /// The transfer function's table (entries at scalars m / (M - 1)).
     pub lut: &'a [[f32; 4]],

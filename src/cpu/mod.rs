@@ -468,6 +468,9 @@ impl Ray {
                 return None;
             }
         }
+        if let Some(depth) = frame.depth_in {
+            t1 = t1.min(depth[(row * p.width + col) as usize]);
+        }
         if t0 > t1 || t1 <= 0.0 {
             return None;
         }
@@ -588,6 +591,7 @@ pub(crate) mod test_rays {
     pub fn frame<'a>(params: &'a Params, volume: &'a CpuVolume) -> Frame<'a> {
         Frame {
             params,
+            depth_in: None,
             volume,
             lut: &[],
             cells: None,

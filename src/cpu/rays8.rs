@@ -119,6 +119,19 @@ pub unsafe fn rays(frame: &Frame, col0: u32, row: u32) -> Rays {
         let outside = _mm256_cmp_ps::<_CMP_LT_OQ>(f0, zero);
         hit = _mm256_andnot_ps(_mm256_and_ps(along, outside), hit);
     }
+    // An opaque surface stops each ray at its own depth.
+    if let Some(depth) = frame.depth_in {
+        let base = row as usize * p.width as usize;
+        let at: [f32; 8] = std::array::from_fn(|l| {
+            let col = col0 as usize + l;
+            if col < p.width as usize {
+                depth[base + col]
+            } else {
+                f32::INFINITY
+            }
+        });
+        t1 = _mm256_min_ps(t1, _mm256_loadu_ps(at.as_ptr()));
+    }
     let misses = _mm256_or_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(t0, t1), _mm256_cmp_ps::<_CMP_LE_OQ>(t1, zero));
     hit = _mm256_andnot_ps(misses, hit);
     // (max with the second operand 0 also reads NaN as 0, as f32::max does.)

@@ -14,9 +14,10 @@ pub const RAY_STATE: u32 = 8;
 pub const RAY_DONE: u32 = 9;
 pub const OCCUPANCY: u32 = 10;
 pub const PREINT: u32 = 11;
+pub const DEPTH_IN: u32 = 12;
 
 /// Every binding with the name the shader gives its index (`BINDING_<name>`).
-pub const ALL: [(&str, u32); 12] = [
+pub const ALL: [(&str, u32); 13] = [
     ("PARAMS", PARAMS),
     ("VOLUME", VOLUME),
     ("NORMALS", NORMALS),
@@ -29,4 +30,5 @@ pub const ALL: [(&str, u32); 12] = [
     ("RAY_DONE", RAY_DONE),
     ("OCCUPANCY", OCCUPANCY),
     ("PREINT", PREINT),
+    ("DEPTH_IN", DEPTH_IN),
 ];

@@ -257,6 +257,17 @@ impl Pipelines {
                             count: None,
                         },
                         texture2d(bindings::PREINT),
+                        // R32Float, read by textureLoad: unfilterable.
+                        wgpu::BindGroupLayoutEntry {
+                            binding: bindings::DEPTH_IN,
+                            visibility: wgpu::ShaderStages::COMPUTE,
+                            ty: wgpu::BindingType::Texture {
+                                sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                                view_dimension: wgpu::TextureViewDimension::D2,
+                                multisampled: false,
+                            },
+                            count: None,
+                        },
                     ],
                 });
                 let pipeline = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {

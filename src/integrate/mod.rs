@@ -42,6 +42,9 @@ pub struct Frame<'a> {
     pub clip: Option<Bounds>,
     /// ... and only on the kept side of each of these planes.
     pub planes: &'a [ClipPlane],
+    /// Per pixel (row 0 at the bottom), where an opaque scene stops the
+    /// ray: the world distance along it (infinity: nothing); None: no scene.
+    pub depth_in: Option<&'a [f64]>,
     /// The largest difference between neighbouring voxels along each numpy
     /// axis ([`voxel_slopes`]), which refined pre-integrated segments need;
     /// None: measured per frame (or per ray by `integrate_ray`) when needed.
@@ -141,8 +144,12 @@ struct Ray {
 }
 
 impl Ray {
-    fn new(frame: &Frame, origin: DVec3, dir: DVec3, shift: f64) -> Option<Ray> {
+    fn new(frame: &Frame, origin: DVec3, dir: DVec3, shift: f64, limit: f64) -> Option<Ray> {
         let (t0, t1) = chord(frame, origin, dir)?;
+        let t1 = t1.min(limit);
+        if t0 > t1 {
+            return None;
+        }
         let needed = segments_needed(t1 - t0, frame.config.step_size, shift);
         let n = needed.min(frame.config.max_steps.max(0) as u64);
         Some(Ray { origin, dir, t0, t1, shift, n, needed })
@@ -194,8 +201,9 @@ fn value(frame: &Frame, p: DVec3) -> f64 {
     frame.value_map.apply(frame.volume.sample(frame.volume.bounds.to_unit(p)))
 }
 
-fn trace(frame: &Frame, origin: DVec3, dir: DVec3, shift: f64) -> RayResult {
-    let Some(ray) = Ray::new(frame, origin, dir, shift) else {
+/// The ray, marched up to ray parameter `limit` (an opaque surface there).
+fn trace(frame: &Frame, origin: DVec3, dir: DVec3, shift: f64, limit: f64) -> RayResult {
+    let Some(ray) = Ray::new(frame, origin, dir, shift, limit) else {
         return RayResult::default();
     };
     match frame.config.model {
@@ -207,7 +215,7 @@ fn trace(frame: &Frame, origin: DVec3, dir: DVec3, shift: f64) -> RayResult {
 
 /// One ray without jitter, in the config's model and order.
 pub fn integrate_ray(frame: &Frame, origin: DVec3, dir: DVec3) -> RayResult {
-    trace(&with_slopes(frame), origin, dir, 0.0)
+    trace(&with_slopes(frame), origin, dir, 0.0, f64::INFINITY)
 }
 
 /// The same ray composited from the far end: `C = c_i + exp(-x_i) C`.
@@ -216,7 +224,7 @@ pub fn integrate_ray(frame: &Frame, origin: DVec3, dir: DVec3) -> RayResult {
 pub fn integrate_ray_back_to_front(frame: &Frame, origin: DVec3, dir: DVec3) -> RayResult {
     let mut f = with_slopes(frame);
     f.config.order = Order::BackToFront;
-    trace(&f, origin, dir, 0.0)
+    trace(&f, origin, dir, 0.0, f64::INFINITY)
 }
 
 /// A whole frame: premultiplied RGBA per pixel (row 0 at the bottom), the
@@ -289,7 +297,8 @@ pub fn render_image_interruptible(frame: &Frame, stop: &mut dyn FnMut(usize) -> 
                             let row = row as u32;
                             let shift = if cfg.jitter { jitter_shift(col, row, cfg.jitter_seed) as f64 } else { 0.0 };
                             let (origin, dir) = basis.ray(col, row, frame.width, frame.height);
-                            trace(frame, origin, dir, shift)
+                            let limit = frame.depth_in.map_or(f64::INFINITY, |d| d[row as usize * w + col as usize]);
+                            trace(frame, origin, dir, shift, limit)
                         })
                         .collect();
                     *rows[row].lock().unwrap_or_else(|p| p.into_inner()) = results;

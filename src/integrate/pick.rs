@@ -14,8 +14,14 @@ use glam::DVec3;
 /// The ray parameter of what the ray `origin + t dir` (unit `dir`) shows,
 /// or None where it shows nothing (it misses the box, every sample is
 /// empty, or its opacity never reaches `threshold`, which is in (0, 1]).
-pub fn pick(frame: &Frame, origin: DVec3, dir: DVec3, threshold: f64) -> Option<f64> {
+/// An opaque scene at ray parameter `limit` stops the ray there (nothing
+/// behind it is picked; infinity: none).
+pub fn pick(frame: &Frame, origin: DVec3, dir: DVec3, threshold: f64, limit: f64) -> Option<f64> {
     let (t0, t1) = chord(frame, origin, dir)?;
+    let t1 = t1.min(limit);
+    if t0 > t1 {
+        return None;
+    }
     let cfg = &frame.config;
     let needed = segments_needed(t1 - t0, cfg.step_size, 0.0);
     let n = needed.min(cfg.max_steps.max(0) as u64);

@@ -30,6 +30,7 @@ fn ambient_frame<'a>(volume: VolumeView<'a>, lut: &'a [[f32; 4]], cfg: RenderCon
         value_map: ValueMap::IDENTITY,
         clip: None,
         planes: &[],
+        depth_in: None,
         slopes: None,
     }
 }

@@ -115,7 +115,9 @@ uniform_block! {
         /// 1: parallel rays, pixel (x, y)'s from `cam_pos + X cam_right + Y
         /// cam_up` along `cam_fwd`; 0: every ray from `cam_pos`.
         pub orthographic: u32,
-        pub plan_pad0: u32,
+        /// 1: each pixel's ray stops at its texel of the depth texture (an
+        /// opaque scene's surface, ray parameter in the block's units).
+        pub depth_in: u32,
         pub plan_pad1: u32,
         pub plan_pad2: u32,
         /// Clip planes as (n, c): rays march where `n · p + c >= 0` (p in
@@ -245,7 +247,7 @@ impl Params {
             value_prescale,
             clip_count: f.planes.len().min(MAX_CLIP_PLANES) as u32,
             orthographic: basis.orthographic as u32,
-            plan_pad0: 0,
+            depth_in: 0,
             plan_pad1: 0,
             plan_pad2: 0,
             clip_planes: std::array::from_fn(|k| f.planes.get(k).map_or([0.0; 4], |q| plane_in_block(q, &b, s))),

@@ -21,7 +21,7 @@ const BATCH: usize = 4096;
 /// (t, x, y, z), NaN where it shows nothing. Ctrl-C stops the work.
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
-#[pyo3(signature = (data, normals, min_bounds, max_bounds, lut, camera, light, config, width, height, pixels, threshold, value_map=(1.0, 0.0), clip=None, planes=None))]
+#[pyo3(signature = (data, normals, min_bounds, max_bounds, lut, camera, light, config, width, height, pixels, threshold, value_map=(1.0, 0.0), clip=None, planes=None, depth=None))]
 pub fn pick_reference<'py>(
     py: Python<'py>,
     data: &Bound<'py, PyAny>,
@@ -39,6 +39,7 @@ pub fn pick_reference<'py>(
     value_map: (f64, f64),
     clip: Option<(Vec3, Vec3)>,
     planes: Option<Vec<(Vec3, Vec3)>>,
+    depth: Option<PyReadonlyArray2<'py, f64>>,
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
     if !(threshold > 0.0 && threshold <= 1.0) {
         return Err(PyValueError::new_err(format!("threshold must be in (0, 1], got {threshold}")));
@@ -51,7 +52,8 @@ pub fn pick_reference<'py>(
     if let Some(p) = pixels.iter().find(|p| p[0] >= width || p[1] >= height) {
         return Err(PyValueError::new_err(format!("pixel {p:?} is outside the {width}x{height} image")));
     }
-    let scene = ReferenceScene::new(&lut, &camera, &light, &config, None, value_map, clip, planes)?;
+    let scene = ReferenceScene::new(&lut, &camera, &light, &config, None, value_map, clip, planes)?
+        .with_depth(depth, width, height)?;
     let found = with_volume(data, &normals, min_bounds, max_bounds, |volume| {
         let frame = scene.frame(volume, width, height, 0.0);
         let basis = frame.camera.basis(width, height).map_err(to_py)?;
@@ -67,7 +69,9 @@ pub fn pick_reference<'py>(
                                 part.iter()
                                     .map(|&[col, row]| {
                                         let (o, d) = basis.ray(col, row, width, height);
-                                        match integrate::pick(&frame, o, d, threshold) {
+                                        let limit =
+                                            frame.depth_in.map_or(f64::INFINITY, |z| z[(row * width + col) as usize]);
+                                        match integrate::pick(&frame, o, d, threshold, limit) {
                                             Some(t) => {
                                                 let p = o + d * t;
                                                 [t, p.x, p.y, p.z]

@@ -275,6 +275,14 @@ impl PyRenderer {
         self.inner.set_clip_planes(&clip_planes(Some(planes))?).map_err(to_py)
     }
 
+    /// An opaque scene's depth for the next frames: float32 (height, width),
+    /// row 0 at the bottom, the world distance along each pixel's ray to its
+    /// surface (inf where none); None removes it.
+    fn set_depth_in(&mut self, depth: Option<PyReadonlyArray2<'_, f32>>) -> PyResult<()> {
+        let flat = depth.map(|d| d.as_array().iter().copied().collect::<Vec<f32>>());
+        self.inner.set_depth_in(flat).map_err(to_py)
+    }
+
     /// Renders one frame as a (H, W, 4) array and a dict of frame
     /// statistics. `output`: (codes, straight, background, top_down) for
     /// uint8 codes (else float32), straight colour (else premultiplied),
@@ -569,6 +577,7 @@ pub(super) struct ReferenceScene {
     config: RenderConfig,
     camera: Camera,
     light: Light,
+    depth_in: Option<Vec<f64>>,
 }
 
 impl ReferenceScene {
@@ -596,7 +605,33 @@ impl ReferenceScene {
             config: cfg,
             camera: camera_from(camera),
             light: light_from(light)?,
+            depth_in: None,
         })
+    }
+
+    /// An opaque scene's depth per pixel ((height, width), row 0 at the
+    /// bottom, world distances along the rays, inf where nothing is).
+    pub(super) fn with_depth(
+        mut self,
+        depth: Option<PyReadonlyArray2<'_, f64>>,
+        width: u32,
+        height: u32,
+    ) -> PyResult<Self> {
+        if let Some(d) = depth {
+            let view = d.as_array();
+            if view.shape() != [height as usize, width as usize] {
+                return Err(PyValueError::new_err(format!(
+                    "depth must have shape ({height}, {width}), got {:?}",
+                    view.shape()
+                )));
+            }
+            let flat: Vec<f64> = view.iter().copied().collect();
+            if let Some(bad) = flat.iter().find(|v| !(**v >= 0.0)) {
+                return Err(PyValueError::new_err(format!("depths must be distances >= 0 or inf, got {bad}")));
+            }
+            self.depth_in = Some(flat);
+        }
+        Ok(self)
     }
 
     pub(super) fn frame<'a>(&'a self, volume: VolumeView<'a>, width: u32, height: u32, tolerance: f64) -> Frame<'a> {
@@ -612,6 +647,7 @@ impl ReferenceScene {
             value_map: self.value_map,
             clip: self.clip,
             planes: &self.planes,
+            depth_in: self.depth_in.as_deref(),
             slopes: None,
         }
     }
@@ -627,7 +663,7 @@ impl ReferenceScene {
 /// ms; Ctrl-C stops the work (KeyboardInterrupt).
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
-#[pyo3(signature = (data, normals, min_bounds, max_bounds, lut, camera, light, config, width, height, order=None, adaptive_tolerance=0.0, value_map=(1.0, 0.0), clip=None, planes=None, progress=None))]
+#[pyo3(signature = (data, normals, min_bounds, max_bounds, lut, camera, light, config, width, height, order=None, adaptive_tolerance=0.0, value_map=(1.0, 0.0), clip=None, planes=None, depth=None, progress=None))]
 pub fn integrate_reference<'py>(
     py: Python<'py>,
     data: &Bound<'py, PyAny>,
@@ -645,6 +681,7 @@ pub fn integrate_reference<'py>(
     value_map: (f64, f64),
     clip: Option<(Vec3, Vec3)>,
     planes: Option<Vec<(Vec3, Vec3)>>,
+    depth: Option<PyReadonlyArray2<'py, f64>>,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<(Bound<'py, PyArray3<f64>>, u64, Bound<'py, PyArray2<f64>>)> {
     if !(adaptive_tolerance >= 0.0 && adaptive_tolerance.is_finite()) {
@@ -652,7 +689,8 @@ pub fn integrate_reference<'py>(
             "adaptive_tolerance must be a finite number >= 0, got {adaptive_tolerance}"
         )));
     }
-    let scene = ReferenceScene::new(&lut, &camera, &light, &config, order, value_map, clip, planes)?;
+    let scene = ReferenceScene::new(&lut, &camera, &light, &config, order, value_map, clip, planes)?
+        .with_depth(depth, width, height)?;
     // The progress callback runs Python code, where a Ctrl-C's
     // KeyboardInterrupt may surface: it stops the frame and is raised.
     let mut raised_in_progress: Option<PyErr> = None;

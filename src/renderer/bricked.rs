@@ -259,6 +259,7 @@ impl Renderer {
             max_extinction: self.max_extinction(cfg),
         };
         let params = Params { keep_state: keep_state as u32, ..Params::new(&inputs, &basis, light, cfg) };
+        let params = super::with_depth_in(&self.depth_in, &mut self.depth_texels, params, &b.bounds);
         // The eye in continuous voxel coordinates.
         let dims = DVec3::new(b.grid.dims[0] as f64, b.grid.dims[1] as f64, b.grid.dims[2] as f64);
         let eye = (camera.ordering_eye(&b.bounds) - b.bounds.min) / b.bounds.extent() * dims;

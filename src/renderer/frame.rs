@@ -63,6 +63,8 @@ impl Renderer {
         self.check_ready(cfg)?;
         self.update_occupancy(self.occupancy_source(cfg))?;
         let params = self.params(camera, light, cfg)?;
+        let bounds = self.volume.as_ref().expect("checked by check_ready").bounds;
+        let params = super::with_depth_in(&self.depth_in, &mut self.depth_texels, params, &bounds);
         self.depth_ready = false;
         self.native_depth = None;
         if self.skip_empty && self.occupancy.empty_fraction == 1.0 && cfg.model.skips_transparent() {
@@ -159,6 +161,7 @@ impl Renderer {
         let cells = !occ.codes.is_empty() && !model.projects();
         crate::cpu::Frame {
             params,
+            depth_in: (params.depth_in == 1).then_some(&self.depth_texels[..]),
             volume: cpu,
             lut: self.tables.march_rows(),
             cells: cells.then_some((&occ.codes[..], occ.dims)),
@@ -372,6 +375,40 @@ impl Renderer {
         Ok((variant, passes))
     }
 
+    /// Writes this frame's depth texels into the depth texture (made at the
+    /// image's size when there is none yet) and returns its number.
+    fn upload_depth_in(&mut self) -> Result<u64, Error> {
+        let (w, h) = (self.width, self.height);
+        let size = wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 };
+        if self.depth_texture.as_ref().is_none_or(|t| t.0.size() != size) {
+            let ctx = self.ctx();
+            let texture = ctx.scoped("allocating the depth texture", || {
+                ctx.device.create_texture(&wgpu::TextureDescriptor {
+                    label: Some("depth in"),
+                    size,
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format: wgpu::TextureFormat::R32Float,
+                    usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+                    view_formats: &[],
+                })
+            })?;
+            let view = texture.create_view(&Default::default());
+            self.depth_textures_made += 1;
+            self.depth_texture = Some((texture, view, self.depth_textures_made));
+        }
+        let (texture, _, number) = self.depth_texture.as_ref().expect("made above");
+        self.ctx().queue.write_texture(
+            texture.as_image_copy(),
+            bytemuck::cast_slice(&self.depth_texels),
+            wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(4 * w), rows_per_image: Some(h) },
+            size,
+        );
+        self.pending_upload += 4 * w as u64 * h as u64;
+        Ok(*number)
+    }
+
     /// Makes the bind group unless the current one still holds every
     /// resource `variant` reads. A maximum or minimum projection that leaps
     /// reads its cells' bounds where the occupancy grid is bound.
@@ -379,7 +416,8 @@ impl Renderer {
         let hw_filter = variant.layout.hw_filter;
         let projection = (variant.skip_empty && variant.model.leaps_by_bounds())
             .then_some((self.value_map, variant.model == Model::Mip));
-        let key = BindKey { hw_filter, projection };
+        let depth = if self.depth_in.is_some() { Some(self.upload_depth_in()?) } else { None };
+        let key = BindKey { hw_filter, projection, depth };
         if self.bind_group.as_ref().is_some_and(|(_, k)| *k == key) {
             return Ok(());
         }
@@ -419,6 +457,10 @@ impl Renderer {
             (bindings::RAY_DONE, f.ray_state.done.as_entire_binding()),
             (bindings::OCCUPANCY, view(&occupancy)),
             (bindings::PREINT, view(preint)),
+            (
+                bindings::DEPTH_IN,
+                view(self.depth_texture.as_ref().filter(|_| depth.is_some()).map_or(&sh.fixed.no_depth, |t| &t.1)),
+            ),
         ]
         .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource });
         let ctx = self.ctx();

@@ -135,6 +135,15 @@ pub struct Renderer {
     clip: Option<Bounds>,
     /// Half-spaces rays march in, world coordinates (at most MAX_CLIP_PLANES).
     planes: Vec<ClipPlane>,
+    /// An opaque scene's depth per pixel, row 0 at the bottom: the world
+    /// distance along each pixel's ray where it stops (infinity: nothing).
+    depth_in: Option<Vec<f32>>,
+    /// `depth_in` in the frame plan's units, filled per frame.
+    depth_texels: Vec<f32>,
+    /// The shader's copy of `depth_texels` (made once per image size) and
+    /// its number, which bind groups are keyed on.
+    depth_texture: Option<(wgpu::Texture, wgpu::TextureView, u64)>,
+    depth_textures_made: u64,
     /// Leap over empty cells (on by default; off to measure what it saves).
     pub skip_empty: bool,
     /// With `skip_empty`: composite runs through uniform cells as one segment.
@@ -179,6 +188,8 @@ pub use bricked::BrickFrame;
 struct BindKey {
     hw_filter: bool,
     projection: Option<(ValueMap, bool)>,
+    /// The depth texture's number (None: the fixed one).
+    depth: Option<u64>,
 }
 
 /// Pixels a dispatch covers.
@@ -230,6 +241,10 @@ impl Renderer {
             value_map: ValueMap::IDENTITY,
             clip: None,
             planes: Vec::new(),
+            depth_in: None,
+            depth_texels: Vec::new(),
+            depth_texture: None,
+            depth_textures_made: 0,
             skip_empty: true,
             uniform_runs: true,
             shader_filtering: false,
@@ -461,6 +476,47 @@ impl Renderer {
         self.clip = clip;
     }
 
+    /// From the next frame on, each pixel's ray stops where an opaque scene
+    /// is: `depth` holds, row 0 at the bottom, the world distance along
+    /// each pixel's ray (from the camera, or its plane for parallel rays)
+    /// to the scene's surface, infinity where there is none; None: no
+    /// scene. Shadow rays are not stopped.
+    pub fn set_depth_in(&mut self, depth: Option<Vec<f32>>) -> Result<(), Error> {
+        if let Some(d) = &depth {
+            let pixels = self.width as usize * self.height as usize;
+            if d.len() != pixels {
+                return Err(Error::InvalidInput(format!(
+                    "the depth image must have {}x{} values, got {}",
+                    self.width,
+                    self.height,
+                    d.len()
+                )));
+            }
+            if let Some(bad) = d.iter().find(|v| !(**v >= 0.0)) {
+                return Err(Error::InvalidInput(format!(
+                    "depths must be distances >= 0 (infinity where nothing is), got {bad}"
+                )));
+            }
+        }
+        self.depth_in = depth;
+        Ok(())
+    }
+}
+
+/// `params` with the frame's depth image `depth_in`, when there is one:
+/// its distances in the plan's units into `texels`, for either engine.
+/// (Fields apart, so that a bricked frame can call it while it reads its bricks.)
+fn with_depth_in(depth_in: &Option<Vec<f32>>, texels: &mut Vec<f32>, mut params: Params, bounds: &Bounds) -> Params {
+    if let Some(d) = depth_in {
+        let s = (1.0 / crate::plan::world_unit(bounds)) as f32;
+        texels.clear();
+        texels.extend(d.iter().map(|v| v * s));
+        params.depth_in = 1;
+    }
+    params
+}
+
+impl Renderer {
     /// Rays and shadow rays march only on the kept side of every plane from
     /// the next frame on (none: no planes). Nothing is uploaded.
     pub fn set_clip_planes(&mut self, planes: &[ClipPlane]) -> Result<(), Error> {

@@ -71,6 +71,8 @@ impl RayState {
 pub struct Fixed {
     pub no_normals: wgpu::TextureView,
     pub no_preint: wgpu::TextureView,
+    /// The depth texture of frames with no opaque scene (never read).
+    pub no_depth: wgpu::TextureView,
     /// [non-filtering, filtering]: the volume's sampler by filterability.
     pub volume_samplers: [wgpu::Sampler; 2],
     pub linear_sampler: wgpu::Sampler,
@@ -117,6 +119,15 @@ impl Fixed {
             1,
             &[0u8; 8],
         )?;
-        Ok(Fixed { no_normals, no_preint, volume_samplers, linear_sampler })
+        let no_depth = ctx.texture_with_data(
+            "allocating renderer buffers",
+            "no depth",
+            one,
+            D2,
+            wgpu::TextureFormat::R32Float,
+            1,
+            &f32::INFINITY.to_le_bytes(),
+        )?;
+        Ok(Fixed { no_normals, no_preint, no_depth, volume_samplers, linear_sampler })
     }
 }
