@@ -16,15 +16,26 @@ class OpaqueScene:
 
     def under(self, img: np.ndarray) -> np.ndarray:
         """Premultiplied ``img`` (H, W, 4) over the scene's colour where it
-        has a surface (opaque there); elsewhere as it was."""
+        has a surface and a colour (opaque there); elsewhere as it was."""
         if self.color is None:
             return img
         out = np.array(img, copy=True)
-        surface = np.isfinite(self.depth64)
+        surface = np.isfinite(self.depth64) & np.all(np.isfinite(self.color), axis=-1)
         behind = (1.0 - out[..., 3:4]) * self.color
         out[..., :3] = np.where(surface[..., None], out[..., :3] + behind, out[..., :3])
         out[..., 3] = np.where(surface, 1.0, out[..., 3])
         return out
+
+
+def nearer(scene: Optional[OpaqueScene], depth: np.ndarray, color: np.ndarray) -> OpaqueScene:
+    """``scene`` with another opaque surface (``depth``, ``color``, row 0 at
+    the bottom) where that is nearer; pixels of a scene given without
+    colour keep none (NaN)."""
+    if scene is None:
+        return OpaqueScene(depth, color)
+    mine = scene.color if scene.color is not None else np.full(color.shape, np.nan)
+    closer = depth < scene.depth64
+    return OpaqueScene(np.where(closer, depth, scene.depth64), np.where(closer[..., None], color, mine))
 
 
 def opaque_scene(depth, color, width: int, height: int, origin: str) -> OpaqueScene:

@@ -6,6 +6,7 @@ from typing import Optional
 import numpy as np
 
 from . import _core
+from ._slices import trilinear
 from ._storage import prepare_normals, prepare_voxels
 from ._threads import _serialised
 
@@ -37,22 +38,6 @@ def _pixel_indices(name: str, v, size: int) -> np.ndarray:
     if not np.all((a >= 0) & (a < size)):
         raise ValueError(f"{name} must be pixel coordinates from 0 to {size - 1}, got {v!r}")
     return a.astype(np.uint32)
-
-
-def _trilinear(data, u: np.ndarray) -> np.ndarray:
-    """``data`` interpolated at cell-centred voxel coordinates ``u`` (N, 3)
-    (clamped at the edges, as the engines sample), reading 8 voxels each."""
-    dims = np.array(data.shape[:3])
-    u = np.clip(u, 0.0, dims - 1)
-    lo = np.minimum(np.floor(u).astype(np.int64), dims - 2).clip(0)
-    w = np.clip(u - lo, 0.0, 1.0)
-    hi = np.minimum(lo + 1, dims - 1)
-    out = np.zeros(len(u))
-    for corner in range(8):
-        pick = [hi[:, a] if corner >> a & 1 else lo[:, a] for a in range(3)]
-        weight = np.prod([w[:, a] if corner >> a & 1 else 1 - w[:, a] for a in range(3)], axis=0)
-        out += weight * np.asarray(data[pick[0], pick[1], pick[2]], np.float64)
-    return out
 
 
 class Picking:
@@ -110,7 +95,7 @@ class Picking:
             dims = np.array(self.volume.data.shape[:3])
             u = (position[hit] - lo) / (hi - lo) * dims - 0.5  # cell-centred voxel coordinates
             index[hit] = np.clip(np.rint(u), 0, dims - 1).astype(np.int64)
-            value[hit] = _trilinear(self.volume.data, u)
+            value[hit] = trilinear(self.volume.data, u)
         return Picks(hit=hit.reshape(shape), position=position.reshape(shape + (3,)),
                      depth=found[:, 0].reshape(shape), index=index.reshape(shape + (3,)),
                      value=value.reshape(shape))

@@ -26,7 +26,7 @@ from ._frames import (
     output_image,
 )
 from ._numbers import check_count
-from ._opaque import opaque_scene
+from ._opaque import nearer, opaque_scene
 from ._scene import _camera_tuple, _check_size, _path_cameras
 from ._storage import prepare_normals, prepare_voxels
 from ._threads import _serialised
@@ -119,7 +119,7 @@ class FrameRendering:
 
     def render(self, *, dtype=np.uint8, premultiplied: bool = False, origin: str = "lower",
                background=None, size: Optional[tuple] = None, config: Optional[RenderConfig] = None,
-               accumulate: int = 1, depth=None, color=None) -> np.ndarray:
+               accumulate: int = 1, depth=None, color=None, slices=None) -> np.ndarray:
         """Render a frame as a C-contiguous (H, W, 4) array.
 
         dtype: np.uint8 (default) or np.float32. premultiplied: return colour
@@ -152,6 +152,10 @@ class FrameRendering:
         [0, 1] (or uint8) is the scene's colour: the volume in front is
         composited over it where the depth is finite (opaque there). Without
         ``color`` the frame is the volume in front of the scene alone.
+        slices: ``(point, normal)`` planes shown as opaque slices of the
+        volume (its colour through the transfer functions, as
+        :meth:`render_slice` gives it) inside the box, which the volume is
+        composited around; with ``depth``, the nearer surface shows.
         """
         bg = None if background is None else _colour(background)
         if origin not in ("lower", "upper"):
@@ -165,9 +169,11 @@ class FrameRendering:
                 raise TypeError(f"Expected RenderConfig instance, got {type(config)}")
             config.validate()
         n = check_count("accumulate", accumulate, high=1 << 16)
-        if depth is not None or color is not None:
+        if depth is not None or color is not None or slices is not None:
             w, h = (self.width, self.height) if size is None else size
-            scene = opaque_scene(depth, color, w, h, origin)
+            scene = None if depth is None and color is None else opaque_scene(depth, color, w, h, origin)
+            if slices is not None:
+                scene = nearer(scene, *self._slice_scene(slices, w, h))
             with self._lock:
                 self._engine.set_depth_in(scene.depth32)
                 try:

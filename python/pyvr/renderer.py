@@ -18,6 +18,7 @@ import numpy as np
 from . import _core
 from ._loading import VolumeLoading
 from ._picking import Picking, Picks  # noqa: F401
+from ._slices import Slicing
 from ._numbers import check_count
 from ._rendering import FrameRendering
 from ._scene import _camera_tuple, _clip_planes, _finite_vec, _light_tuple, _runtime_dir, _table_of
@@ -46,7 +47,7 @@ from ._frames import (  # noqa: E402, F401
 from ._storage import DEFAULT_CPU_CACHE, PRECISIONS, cpu_cache_bytes, device_texel_bytes  # noqa: E402, F401
 
 
-class VolumeRenderer(VolumeLoading, FrameRendering, Picking):
+class VolumeRenderer(VolumeLoading, FrameRendering, Picking, Slicing):
     """Renders a Volume with transfer functions, a camera and a light.
 
     >>> renderer = VolumeRenderer(512, 512, config=RenderConfig.balanced())
