@@ -302,6 +302,26 @@ def test_the_o_key_switches_to_parallel_rays_and_back(ui):
     assert np.array_equal(shown(ui), start)
 
 
+def test_the_value_under_the_mouse_and_a_double_click_to_turn_about_it(ui):
+    ax = ui.image_display.ax
+    mouse(ui, "motion_notify_event", ax, 0.5, 0.5)
+    label = ax.get_xlabel()
+    col, row = int(0.5 * ui.width), int(0.5 * ui.height)
+    picked = ui.renderer.pick(col, row)
+    assert picked.hit and label == f"value {float(picked.value):.4g} at voxel {tuple(int(i) for i in picked.index)}"
+    mouse(ui, "motion_notify_event", ax, 0.01, 0.01)  # a corner: the ray meets nothing there
+    assert ax.get_xlabel() == ""
+    # A double-click makes the point under it the view's centre, same direction.
+    before = ui.camera_controller.params.get_camera_vectors()[0] - ui.camera_controller.params.target
+    x, y = ax.transAxes.transform((0.5, 0.5))
+    ev = MouseEvent("button_press_event", ui.fig.canvas, x, y, button=1, dblclick=True)
+    ui.fig.canvas.callbacks.process("button_press_event", ev)
+    p = ui.camera_controller.params
+    np.testing.assert_allclose(p.target, picked.position, atol=1e-5)
+    np.testing.assert_allclose(p.get_camera_vectors()[0] - p.target, before, atol=1e-4)
+    assert ui.renderer.camera is p or np.allclose(ui.renderer.camera.target, p.target)
+
+
 def test_fps_histogram_and_save_keys(ui, tmp_path):
     key(ui, "f")
     assert not ui.state.show_fps and not ui.image_display.fps_text.get_visible()

@@ -88,6 +88,20 @@ def test_the_o_key_switches_the_views_projection(renderer):
     assert np.array_equal(view.draw(), perspective)
 
 
+def test_a_double_click_turns_the_view_about_the_point_under_it(renderer):
+    view = VolumeView(renderer)
+    view.draw()
+    view.handle_event({"type": "resize", "width": 96, "height": 80, "pixel_ratio": 1.0})
+    offset = view.camera.get_camera_vectors()[0] - view.camera.target
+    picked = renderer.pick(48, 40)  # the middle of the view, rows from the bottom
+    assert picked.hit
+    view.handle_event({"type": "double_click", "x": 48.5, "y": 39.5, "button": 1, "modifiers": []})
+    np.testing.assert_allclose(view.camera.target, picked.position, atol=1e-5)
+    np.testing.assert_allclose(view.camera.get_camera_vectors()[0] - view.camera.target, offset, atol=1e-4)
+    view.handle_event({"type": "double_click", "x": 1, "y": 1, "button": 1, "modifiers": []})  # nothing there
+    np.testing.assert_allclose(view.camera.target, picked.position, atol=1e-5)
+
+
 def test_view_rejects_bad_input():
     with pytest.raises(TypeError, match="Expected VolumeRenderer"):
         VolumeView("r")

@@ -163,3 +163,23 @@ def test_bad_arguments_are_refused(kw, exc, message):
 def test_picking_needs_a_volume():
     with pytest.raises(RuntimeError, match="no volume loaded"):
         VolumeRenderer(8, 8).pick(0, 0)
+
+
+@pytest.mark.parametrize("config", [RenderConfig.balanced(), RenderConfig.balanced().replace(model="mip")],
+                         ids=["emission_absorption", "mip"])
+def test_a_depth_image_for_any_model_round_trips_a_depth_buffer(config):
+    from pyvr import scene_depth
+
+    data, _ = blob()
+    r = box_renderer(PERSPECTIVE, config, data, opacity=0.5)
+    depth = r.depth_image()
+    x, y = every_pixel()
+    np.testing.assert_array_equal(depth, np.where(r.pick(x, y).hit, r.pick(x, y).depth, np.inf).astype(np.float32))
+    assert np.isfinite(depth).mean() > 0.2
+    near, far = PERSPECTIVE.near_plane, PERSPECTIVE.far_plane
+    buffer = scene_depth.to_depth_buffer(depth, PERSPECTIVE, near, far)
+    assert buffer.dtype == np.float32 and 0 <= buffer.min() and buffer.max() == 1.0
+    back = scene_depth.from_depth_buffer(buffer, PERSPECTIVE, near, far)
+    seen = np.isfinite(depth)
+    np.testing.assert_allclose(back[seen], depth[seen], rtol=1e-4)
+    assert np.all(np.isinf(back[~seen]))

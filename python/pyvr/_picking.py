@@ -99,3 +99,19 @@ class Picking:
         return Picks(hit=hit.reshape(shape), position=position.reshape(shape + (3,)),
                      depth=found[:, 0].reshape(shape), index=index.reshape(shape + (3,)),
                      value=value.reshape(shape))
+
+    def depth_image(self, *, threshold: float = 0.5, origin: str = "lower") -> np.ndarray:
+        """The depth of what every pixel shows, for any model: float32
+        (H, W) distances along the pixels' rays (as :meth:`pick` defines
+        the point: the opacity ``threshold``'s first crossing, the
+        projection's extremum, the surface hit), inf where nothing is. For
+        meshes drawn after the volume: :func:`pyvr.scene_depth.to_depth_buffer`
+        turns it into a rasteriser's depth buffer. Computed by the float64
+        integrator's rules on every core (a pick per pixel), not by the
+        frame's engine."""
+        if origin not in ("lower", "upper"):
+            raise ValueError(f"origin must be 'lower' or 'upper', got {origin!r}")
+        cols, rows = np.meshgrid(np.arange(self.width), np.arange(self.height))
+        d = self.pick(cols, rows, threshold=threshold).depth
+        d = np.where(np.isnan(d), np.inf, d).astype(np.float32)
+        return np.ascontiguousarray(d[::-1]) if origin == "upper" else d

@@ -122,7 +122,8 @@ class VolumeView(RemoteFrameBuffer):
     def handle_event(self, event: dict) -> None:
         """jupyter_rfb's event callback: pointer drags turn the camera, the wheel
         zooms, the ``o`` key switches between perspective and orthographic
-        projection, resizes rescale the drag."""
+        projection, a double-click turns the view about the point under it,
+        resizes rescale the drag."""
         kind = event.get("type", event.get("event_type"))
         if kind == "pointer_down" and event.get("button", 1) == 1:
             self._event_time = time.perf_counter()
@@ -150,6 +151,8 @@ class VolumeView(RemoteFrameBuffer):
                 self._begin()
                 self.request_draw()
                 self._settle_later()
+        elif kind == "double_click" and event.get("button", 1) == 1:
+            self._centre_on(float(event["x"]), float(event["y"]))
         elif kind == "key_down" and event.get("key") == "o":
             # Orthographic / perspective, as the window's o key; the view's
             # height follows the distance, so the target keeps its size.
@@ -162,6 +165,25 @@ class VolumeView(RemoteFrameBuffer):
             if event.get("width", 0) > 0 and event.get("height", 0) > 0:
                 self._view_size = (float(event["width"]), float(event["height"]))
             self.request_draw()
+
+    def _centre_on(self, x: float, y: float) -> None:
+        """Turn about the point the view shows at (x, y) (logical pixels,
+        y down, as the browser gives them) from now on: the view moves so
+        that it is in the middle, looking the same way."""
+        w, h = self._view_size
+        col = min(max(int(x / w * self.renderer.width), 0), self.renderer.width - 1)
+        row = min(max(int((1.0 - y / h) * self.renderer.height), 0), self.renderer.height - 1)
+        if self.renderer._bricked is not None:  # a pick would read the whole volume
+            return
+        self.renderer.set_camera(self.controller.params)  # the view's camera, drawn or not yet
+        picked = self.renderer.pick(col, row)
+        if not bool(picked.hit):
+            return
+        cam = self.controller.params
+        shift = np.asarray(picked.position, np.float64) - np.asarray(cam.target, np.float64)
+        cam.init_pos = (np.asarray(cam.init_pos, np.float64) + shift).astype(np.float32)
+        cam.target = np.asarray(picked.position, np.float32)
+        self.request_draw()
 
     def _begin(self) -> None:
         if not self._interacting:

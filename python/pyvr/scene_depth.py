@@ -58,3 +58,37 @@ def from_depth_buffer(buffer, camera: Camera, near: float, far: float, *, conven
             y = y[::-1]
         distance = eye_z * np.sqrt(1.0 + x[None, :] ** 2 + y[:, None] ** 2)
     return np.where(ndc >= 1.0, np.inf, distance)
+
+
+def to_depth_buffer(distance, camera: Camera, near: float, far: float, *, convention: str = "window",
+                    origin: str = "lower") -> np.ndarray:
+    """The inverse of :func:`from_depth_buffer`: distances along pyvr's
+    rays (e.g. :meth:`pyvr.renderer.VolumeRenderer.depth_image`) as a
+    rasteriser's depth buffer for ``camera``'s projection with ``near`` and
+    ``far``, so that meshes drawn afterwards are depth-tested against the
+    volume. Distances past ``far`` (and inf) give the far plane's value."""
+    if convention not in CONVENTIONS:
+        raise ValueError(f"convention must be one of {', '.join(CONVENTIONS)}, got {convention!r}")
+    if origin not in ("lower", "upper"):
+        raise ValueError(f"origin must be 'lower' or 'upper', got {origin!r}")
+    if not (0 < near < far < np.inf):
+        raise ValueError(f"need 0 < near < far, finite; got near={near!r}, far={far!r}")
+    s = np.asarray(distance, np.float64)
+    if s.ndim != 2 or s.size == 0:
+        raise ValueError(f"distance must be a 2-D image, got shape {s.shape}")
+    n, f = float(near), float(far)
+    h, w = s.shape
+    if camera.projection == "orthographic":
+        eye_z = s
+        ndc = (2.0 * eye_z - (f + n)) / (f - n)
+    else:
+        t = np.tan(0.5 * camera.fov)
+        x = (2.0 * (np.arange(w) + 0.5) / w - 1.0) * (w / h) * t
+        y = (2.0 * (np.arange(h) + 0.5) / h - 1.0) * t
+        if origin == "upper":
+            y = y[::-1]
+        eye_z = s / np.sqrt(1.0 + x[None, :] ** 2 + y[:, None] ** 2)
+        with np.errstate(divide="ignore"):
+            ndc = ((f + n) - 2.0 * n * f / eye_z) / (f - n)
+    ndc = np.clip(np.where(np.isfinite(ndc), ndc, 1.0), -1.0, 1.0)
+    return (0.5 * (ndc + 1.0) if convention == "window" else ndc).astype(np.float32)

@@ -18,8 +18,47 @@ class EventHandlers:
     def _in(self, widget, event) -> bool:
         return widget is not None and event.inaxes is not None and event.inaxes == widget.ax
 
+    def _picked_under(self, event):
+        """What the image shows under the mouse (``VolumeRenderer.pick``),
+        or None off the image, where nothing is shown, or for volumes not
+        held in memory (a pick there would read the whole volume)."""
+        if not self._in(self.image_display, event) or event.xdata is None or event.ydata is None:
+            return None
+        if getattr(self.renderer, "_bricked", None) is not None or not hasattr(self.renderer, "pick"):
+            return None
+        col = min(max(int(event.xdata), 0), self.width - 1)
+        row = min(max(int(event.ydata), 0), self.height - 1)  # the image's y grows upward, as rows from the bottom
+        picked = self.renderer.pick(col, row)
+        return picked if bool(picked.hit) else None
+
+    def _show_value_under(self, event) -> None:
+        """The value and voxel under the mouse, below the image."""
+        picked = self._picked_under(event)
+        text = "" if picked is None else (f"value {float(picked.value):.4g} at voxel {tuple(int(i) for i in picked.index)}")
+        if self.image_display is not None and self.image_display.ax.get_xlabel() != text:
+            self.image_display.ax.set_xlabel(text, fontsize=9)
+            self.fig.canvas.draw_idle()
+
+    def _centre_on(self, event) -> None:
+        """Turn about the point under a double-click from now on."""
+        picked = self._picked_under(event)
+        if picked is None:
+            return
+        # The view moves with its centre (init_pos is absolute): the same
+        # direction, the point in the middle.
+        cam = self.camera_controller.params
+        shift = np.asarray(picked.position, np.float64) - np.asarray(cam.target, np.float64)
+        cam.init_pos = (np.asarray(cam.init_pos, np.float64) + shift).astype(np.float32)
+        self.camera_controller.look_at(np.asarray(picked.position, np.float32))
+        print(f"Rotating about {tuple(round(float(v), 4) for v in picked.position)}")
+        self.state.needs_render = True
+        self._update_display(force_render=True)
+
     def _on_mouse_press(self, event) -> None:
         self._event_time = time.perf_counter()
+        if self._in(self.image_display, event) and getattr(event, "dblclick", False) and event.button == 1:
+            self._centre_on(event)
+            return
         if self._in(self.image_display, event):
             if event.button == 1:
                 self.state.is_dragging_camera = True
@@ -88,6 +127,8 @@ class EventHandlers:
             self.state.drag_start_pos = (event.xdata, event.ydata)
             self.state.needs_render = True
             self._update_display()
+        elif not self.state.is_dragging_control_point:
+            self._show_value_under(event)
         elif self.state.is_dragging_control_point:
             i = self.state.selected_control_point
             if i is None or not self._in(self.opacity_editor, event) or event.xdata is None:

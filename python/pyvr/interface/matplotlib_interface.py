@@ -54,7 +54,7 @@ _CONTROLS = (
     "  l: Toggle light link   q: Toggle auto-quality\n"
     "  t: Toggle control mode Esc: Deselect\n"
     "  Del: Remove selected   ctrl+w: Close\n"
-    "  o: Toggle orthographic\n"
+    "  o: Toggle orthographic   Double-click: rotate about that point\n"
 )
 
 
