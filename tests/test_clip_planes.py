@@ -114,12 +114,13 @@ def blob(n=40):
     return (0.9 * np.exp(-(x * x + y * y + z * z) / 0.08)).astype(np.float32)
 
 
-def scene(config, planes, **kw):
+def scene(config, planes, camera=None, **kw):
+    """A lit Gaussian blob, also the scene of test_orthographic.py."""
     r = VolumeRenderer(64, 56, config=config, light=Light.directional((-1.0, -0.3, 0.2), ambient=0.3, diffuse=0.7),
                        **kw)
     r.load_volume(Volume(blob()))
-    r.set_camera(Camera.from_spherical(target=np.zeros(3, np.float32), azimuth=0.7, elevation=0.3, roll=0.0,
-                                       distance=2.2))
+    r.set_camera(camera or Camera.from_spherical(target=np.zeros(3, np.float32), azimuth=0.7, elevation=0.3,
+                                                 roll=0.0, distance=2.2))
     r.set_transfer_functions(ColorTransferFunction.from_colormap("viridis"),
                              OpacityTransferFunction.linear(0.0, 0.25))
     r.set_clip_planes(planes)
@@ -133,13 +134,17 @@ def levels(a, b):
 CUT = [((0.05, 0.0, 0.0), (1.0, 0.2, 0.1))]
 
 
-@pytest.mark.parametrize("config", [
-    RenderConfig.balanced(),
-    RenderConfig(step_size=0.01, model="single_scattering", shadow_step_size=0.02),
-    RenderConfig(step_size=0.01, model="mip"),
-    RenderConfig(step_size=0.01, model="isosurface", iso_value=0.5),
-    RenderConfig(step_size=0.01, pre_integrated=True),
-], ids=["emission_absorption", "single_scattering", "mip", "isosurface", "pre_integrated"])
+# One config per model (and test_orthographic.py's too).
+MODELS = {
+    "emission_absorption": RenderConfig.balanced(),
+    "single_scattering": RenderConfig(step_size=0.01, model="single_scattering", shadow_step_size=0.02),
+    "mip": RenderConfig(step_size=0.01, model="mip"),
+    "isosurface": RenderConfig(step_size=0.01, model="isosurface", iso_value=0.5),
+}
+
+
+@pytest.mark.parametrize("config", [*MODELS.values(), RenderConfig(step_size=0.01, pre_integrated=True)],
+                         ids=[*MODELS, "pre_integrated"])
 def test_every_model_clips_as_the_float64_integrator_does(config):
     r = scene(config, CUT)
     img = r.render(dtype=np.float32)

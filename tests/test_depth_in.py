@@ -15,8 +15,8 @@ from pyvr.camera import Camera
 from pyvr.lighting import Light
 from pyvr.transferfunctions import ColorTransferFunction, OpacityTransferFunction
 from pyvr.volume import Volume
-from test_closed_form import COLOR, H, W, rays
-from test_orthographic import parallel_rays
+from test_closed_form import COLOR, H, W
+from test_orthographic import box_rays
 
 HALF_LEVEL = 0.5 / 255
 PLANE_X = 0.1
@@ -33,17 +33,7 @@ CAMERAS = {
 
 def geometry(camera):
     """Per pixel: the box chord (t0, t1) and the plane's ray parameter tp."""
-    if camera.projection == "orthographic":
-        o, d = parallel_rays(camera, W, H)
-        d = np.broadcast_to(d, o.shape)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ta, tb = (-0.5 - o) / d, (0.5 - o) / d
-        t0 = np.maximum(np.nanmax(np.minimum(ta, tb), axis=-1), 0)
-        t1 = np.nanmin(np.maximum(ta, tb), axis=-1)
-        t0, t1 = np.where(t1 > t0, t0, np.nan), np.where(t1 > t0, t1, np.nan)
-    else:
-        o, d, t0, t1 = rays(camera, np.full(3, -0.5), np.full(3, 0.5), W, H)
-        o = np.broadcast_to(o, d.shape)
+    o, d, t0, t1 = box_rays(camera, W, H)
     tp = (PLANE_X - o[..., 0]) / d[..., 0]
     # A square of the plane, 0.6 a side: some rays pass it by.
     hit = o + d * tp[..., None]
@@ -153,11 +143,7 @@ def test_depth_buffers_convert_to_distances_along_the_rays(name, convention):
     tp, _, _ = expected(camera)
     view = camera.get_view_matrix().astype(np.float64).T
     proj = camera.get_projection_matrix(W / H).astype(np.float64)
-    if camera.projection == "orthographic":
-        o, d = parallel_rays(camera, W, H)
-        d = np.broadcast_to(d, o.shape)
-    else:
-        o, d, _, _ = rays(camera, np.full(3, -0.5), np.full(3, 0.5), W, H)
+    o, d, _, _ = box_rays(camera, W, H)
     points = o + d * np.where(np.isfinite(tp), tp, 1e9)[..., None]
     eye = np.einsum("ij,hwj->hwi", view, np.concatenate([points, np.ones((H, W, 1))], axis=-1))
     clip = np.einsum("ij,hwj->hwi", proj, eye)

@@ -16,8 +16,8 @@ from pyvr.camera import Camera, CameraController, CameraPath
 from pyvr.lighting import Light
 from pyvr.transferfunctions import ColorTransferFunction, OpacityTransferFunction
 from pyvr.volume import Volume
-from test_clip_planes import PLANES
-from test_closed_form import A_TF, COLOR, PRESETS, H, W
+from test_clip_planes import MODELS, PLANES, levels, scene
+from test_closed_form import A_TF, COLOR, PRESETS, H, W, rays
 
 HALF_LEVEL = 0.5 / 255
 
@@ -42,12 +42,26 @@ def parallel_rays(cam, w, h):
     return o, f
 
 
-def chords(cam, planes=(), lo=-0.5, hi=0.5):
-    o, d = parallel_rays(cam, W, H)
+def box_rays(cam, w=W, h=H, lo=-0.5, hi=0.5):
+    """Per pixel, for either projection: origin and direction (h, w, 3)
+    and the chord (t0, t1) through the box, t0 clipped at the ray's start
+    (NaN on a miss)."""
+    if cam.projection != "orthographic":
+        p, d, t0, t1 = rays(cam, np.broadcast_to(lo, 3), np.broadcast_to(hi, 3), w, h)
+        return np.broadcast_to(p, d.shape), d, t0, t1
+    o, d = parallel_rays(cam, w, h)
+    d = np.broadcast_to(d, o.shape)
     with np.errstate(divide="ignore", invalid="ignore"):
         ta, tb = (lo - o) / d, (hi - o) / d
     t0 = np.maximum(np.nanmax(np.minimum(ta, tb), axis=-1), 0)
     t1 = np.nanmin(np.maximum(ta, tb), axis=-1)
+    miss = ~(t1 > t0)
+    return o, d, np.where(miss, np.nan, t0), np.where(miss, np.nan, t1)
+
+
+def chords(cam, planes=(), lo=-0.5, hi=0.5):
+    o, d, t0, t1 = box_rays(cam, W, H, lo, hi)
+    d = d[0, 0]
     for point, normal in planes:
         n = np.asarray(normal, np.float64) / np.linalg.norm(normal)
         f0 = (o - np.asarray(point, np.float64)) @ n
@@ -58,7 +72,7 @@ def chords(cam, planes=(), lo=-0.5, hi=0.5):
             t1 = np.minimum(t1, -f0 / slope)
         else:
             t1 = np.where(f0 < 0, -np.inf, t1)
-    return np.maximum(t1 - t0, 0.0)
+    return np.nan_to_num(np.maximum(t1 - t0, 0.0))
 
 
 def expected_alpha(L, cfg):
@@ -154,36 +168,12 @@ def test_the_float64_integrator_matches_the_closed_form():
     assert np.abs(img[..., 3] - expected_alpha(chords(cam), cfg)).max() < 1e-6
 
 
-def blob(n=40):
-    z, y, x = np.mgrid[0:n, 0:n, 0:n] / (n - 1) - 0.5
-    return (0.9 * np.exp(-(x * x + y * y + z * z) / 0.08)).astype(np.float32)
-
-
-def scene(config, camera, **kw):
-    r = VolumeRenderer(64, 56, config=config, light=Light.directional((-1.0, -0.3, 0.2), ambient=0.3, diffuse=0.7),
-                       **kw)
-    r.load_volume(Volume(blob()))
-    r.set_camera(camera)
-    r.set_transfer_functions(ColorTransferFunction.from_colormap("viridis"),
-                             OpacityTransferFunction.linear(0.0, 0.25))
-    return r
-
-
-def levels(a, b):
-    return float(np.abs(a.astype(np.float64) - b.astype(np.float64)).max() * 255)
-
-
-@pytest.mark.parametrize("config", [
-    RenderConfig.balanced(),
-    RenderConfig(step_size=0.01, model="single_scattering", shadow_step_size=0.02),
-    RenderConfig(step_size=0.01, model="mip"),
-    RenderConfig(step_size=0.01, model="isosurface", iso_value=0.5),
-    RenderConfig(step_size=0.01, jitter=True),
-], ids=["emission_absorption", "single_scattering", "mip", "isosurface", "jitter"])
+@pytest.mark.parametrize("config", [*MODELS.values(), RenderConfig(step_size=0.01, jitter=True)],
+                         ids=[*MODELS, "jitter"])
 def test_every_model_sees_as_the_float64_integrator_does(config):
-    r = scene(config, ortho_camera(height=1.3))
+    r = scene(config, [], ortho_camera(height=1.3))
     img = r.render(dtype=np.float32)
-    perspective = scene(config, ortho_camera(fov=0.55, projection="perspective"))
+    perspective = scene(config, [], ortho_camera(fov=0.55, projection="perspective"))
     assert levels(perspective.render(dtype=np.float32), img) > 20, "parallel rays show another picture"
     assert levels(img, r.render_float64()) < 0.05
 
@@ -191,7 +181,7 @@ def test_every_model_sees_as_the_float64_integrator_does(config):
 def test_a_camera_inside_the_volume_sees_from_its_plane():
     cam = Camera.from_spherical(target=np.zeros(3, np.float32), azimuth=0.3, elevation=0.2, roll=0.0,
                                 distance=0.2, projection="orthographic", view_height=0.8)
-    r = scene(RenderConfig.balanced(), cam)
+    r = scene(RenderConfig.balanced(), [], cam)
     img = r.render(dtype=np.float32)
     assert img[..., 3].min() > 0.05  # every ray starts inside the volume
     assert levels(img, r.render_float64()) < 0.05
@@ -199,8 +189,8 @@ def test_a_camera_inside_the_volume_sees_from_its_plane():
 
 def test_bricked_volumes_see_as_whole_ones():
     cam = ortho_camera(height=1.3)
-    whole = scene(RenderConfig.balanced(), cam).render(dtype=np.float32)
-    bricked = scene(RenderConfig.balanced(), cam, brick_shape=(16, 16, 16))
+    whole = scene(RenderConfig.balanced(), [], cam).render(dtype=np.float32)
+    bricked = scene(RenderConfig.balanced(), [], cam, brick_shape=(16, 16, 16))
     assert levels(bricked.render(dtype=np.float32), whole) < 0.5
 
 

@@ -15,7 +15,7 @@ from pyvr.lighting import Light
 from pyvr.transferfunctions import ColorTransferFunction, OpacityTransferFunction
 from pyvr.volume import Volume
 from test_closed_form import rays
-from test_orthographic import parallel_rays
+from test_orthographic import box_rays
 
 W, H = 40, 32
 A = 0.004
@@ -48,16 +48,7 @@ def test_a_homogeneous_box_is_picked_where_its_opacity_reaches_the_threshold(cam
     r = box_renderer(camera, opacity=opacity)
     x, y = every_pixel()
     picks = r.pick(x, y, threshold=threshold)
-    if camera.projection == "orthographic":
-        o, d = parallel_rays(camera, W, H)
-        d = np.broadcast_to(d, o.shape)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ta, tb = (-0.5 - o) / d, (0.5 - o) / d
-        t0 = np.maximum(np.nanmax(np.minimum(ta, tb), axis=-1), 0)
-        t1 = np.nanmin(np.maximum(ta, tb), axis=-1)
-    else:
-        o, d, t0, t1 = rays(camera, np.full(3, -0.5), np.full(3, 0.5), W, H)
-        o = np.broadcast_to(o, d.shape)
+    o, d, t0, t1 = box_rays(camera, W, H)
     reach = 0.01 * np.log(1 / (1 - threshold)) / np.float64(np.float32(opacity))  # reference step 0.01
     t = t0 + reach
     expect_hit = np.nan_to_num(t1 - t0) >= reach

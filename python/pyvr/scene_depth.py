@@ -17,6 +17,22 @@ from .camera import Camera
 CONVENTIONS = ("window", "ndc")
 
 
+def _checked(name: str, image, camera, near, far, convention: str, origin: str) -> np.ndarray:
+    """``image`` as float64 (H, W), the other arguments checked."""
+    if convention not in CONVENTIONS:
+        raise ValueError(f"convention must be one of {', '.join(CONVENTIONS)}, got {convention!r}")
+    if origin not in ("lower", "upper"):
+        raise ValueError(f"origin must be 'lower' or 'upper', got {origin!r}")
+    if not isinstance(camera, Camera):
+        raise TypeError(f"Expected Camera instance, got {type(camera)}")
+    if not (0 < near < far < np.inf):
+        raise ValueError(f"need 0 < near < far, finite; got near={near!r}, far={far!r}")
+    a = np.asarray(image, np.float64)
+    if a.ndim != 2 or a.size == 0:
+        raise ValueError(f"{name} must be a 2-D image, got shape {a.shape}")
+    return a
+
+
 def from_depth_buffer(buffer, camera: Camera, near: float, far: float, *, convention: str = "window",
                       origin: str = "lower") -> np.ndarray:
     """Distances along pyvr's rays from a rasteriser's depth buffer.
@@ -31,17 +47,7 @@ def from_depth_buffer(buffer, camera: Camera, near: float, far: float, *, conven
     ``origin``: the buffer's row order, "lower" (row 0 at the bottom, as
     OpenGL reads it) or "upper"; the result has the same.
     """
-    if convention not in CONVENTIONS:
-        raise ValueError(f"convention must be one of {', '.join(CONVENTIONS)}, got {convention!r}")
-    if origin not in ("lower", "upper"):
-        raise ValueError(f"origin must be 'lower' or 'upper', got {origin!r}")
-    if not isinstance(camera, Camera):
-        raise TypeError(f"Expected Camera instance, got {type(camera)}")
-    if not (0 < near < far < np.inf):
-        raise ValueError(f"need 0 < near < far, finite; got near={near!r}, far={far!r}")
-    z = np.asarray(buffer, np.float64)
-    if z.ndim != 2 or z.size == 0:
-        raise ValueError(f"buffer must be a 2-D depth image, got shape {z.shape}")
+    z = _checked("buffer", buffer, camera, near, far, convention, origin)
     ndc = 2.0 * z - 1.0 if convention == "window" else z
     n, f = float(near), float(far)
     h, w = z.shape
@@ -67,15 +73,7 @@ def to_depth_buffer(distance, camera: Camera, near: float, far: float, *, conven
     rasteriser's depth buffer for ``camera``'s projection with ``near`` and
     ``far``, so that meshes drawn afterwards are depth-tested against the
     volume. Distances past ``far`` (and inf) give the far plane's value."""
-    if convention not in CONVENTIONS:
-        raise ValueError(f"convention must be one of {', '.join(CONVENTIONS)}, got {convention!r}")
-    if origin not in ("lower", "upper"):
-        raise ValueError(f"origin must be 'lower' or 'upper', got {origin!r}")
-    if not (0 < near < far < np.inf):
-        raise ValueError(f"need 0 < near < far, finite; got near={near!r}, far={far!r}")
-    s = np.asarray(distance, np.float64)
-    if s.ndim != 2 or s.size == 0:
-        raise ValueError(f"distance must be a 2-D image, got shape {s.shape}")
+    s = _checked("distance", distance, camera, near, far, convention, origin)
     n, f = float(near), float(far)
     h, w = s.shape
     if camera.projection == "orthographic":

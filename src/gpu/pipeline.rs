@@ -201,13 +201,14 @@ fn texture3d(binding: u32, filterable: bool) -> wgpu::BindGroupLayoutEntry {
     }
 }
 
-/// A filterable 2-D float table (the LUT, the pre-integration table).
-fn texture2d(binding: u32) -> wgpu::BindGroupLayoutEntry {
+/// A 2-D float texture: filterable for the tables (the LUT, the
+/// pre-integration table), unfilterable for R32Float read by textureLoad.
+fn texture2d(binding: u32, filterable: bool) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding,
         visibility: wgpu::ShaderStages::COMPUTE,
         ty: wgpu::BindingType::Texture {
-            sample_type: wgpu::TextureSampleType::Float { filterable: true },
+            sample_type: wgpu::TextureSampleType::Float { filterable },
             view_dimension: wgpu::TextureViewDimension::D2,
             multisampled: false,
         },
@@ -239,7 +240,7 @@ impl Pipelines {
                         },
                         texture3d(bindings::VOLUME, filterable),
                         texture3d(bindings::NORMALS, true),
-                        texture2d(bindings::LUT),
+                        texture2d(bindings::LUT, true),
                         storage(bindings::IMAGE, false),
                         storage(bindings::STATS, false),
                         sampler(bindings::VOLUME_SAMPLER, filterable),
@@ -256,18 +257,8 @@ impl Pipelines {
                             },
                             count: None,
                         },
-                        texture2d(bindings::PREINT),
-                        // R32Float, read by textureLoad: unfilterable.
-                        wgpu::BindGroupLayoutEntry {
-                            binding: bindings::DEPTH_IN,
-                            visibility: wgpu::ShaderStages::COMPUTE,
-                            ty: wgpu::BindingType::Texture {
-                                sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                                view_dimension: wgpu::TextureViewDimension::D2,
-                                multisampled: false,
-                            },
-                            count: None,
-                        },
+                        texture2d(bindings::PREINT, true),
+                        texture2d(bindings::DEPTH_IN, false),
                     ],
                 });
                 let pipeline = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
