@@ -216,3 +216,27 @@ def test_the_core_refuses_more_planes_than_it_holds():
     engine.set_clip_planes([((0.0, 0.0, 0.0), (1.0, 0.0, 0.0))] * 16)
     with pytest.raises(ValueError, match="at most 16 clip planes, got 17"):
         engine.set_clip_planes([((0.0, 0.0, 0.0), (1.0, 0.0, 0.0))] * 17)
+
+
+def test_caps_close_the_cut_with_the_volumes_colour():
+    # The camera is on the cut-away side (+x): the plane x = 0.1 keeping
+    # x <= 0.1 is where the kept volume begins. Capped, every ray crossing
+    # that face inside the box shows the transfer function's colour there,
+    # opaque (nothing is in front of it); the other rays are as uncapped.
+    plane = [((0.1, 0.0, 0.0), (-1.0, 0.0, 0.0))]
+    r, cam, _ = clipped_renderer("balanced", plane)
+    open_cut = r.render(dtype=np.float32, premultiplied=True)
+    r.set_clip_planes(plane, caps=True)
+    capped = r.render(dtype=np.float32, premultiplied=True)
+    o, d, t0, t1 = rays(cam, np.full(3, -0.5), np.full(3, 0.5), W, H)
+    tp = (0.1 - o[0]) / d[..., 0]
+    face = o + d * tp[..., None]
+    on = (tp > 0) & np.all(np.abs(face[..., 1:]) < 0.5 - 1e-3, axis=-1)
+    off = ~((tp > 0) & np.all(np.abs(face[..., 1:]) <= 0.5 + 1e-3, axis=-1))  # away from the face's edges
+    assert 0.1 < on.mean() < 0.9
+    assert np.abs(capped[on] - np.array([*COLOR, 1.0])).max() < HALF_LEVEL
+    assert np.abs(capped[off] - open_cut[off]).max() < HALF_LEVEL
+    assert np.abs(open_cut[on][..., 3] - 1).min() > 0.1  # uncapped, the cut was see-through
+    assert r.render_slice(plane[0], values=True).shape == (H, W)
+    with pytest.raises(TypeError, match="caps must be True or False"):
+        r.set_clip_planes(plane, caps="yes")

@@ -169,11 +169,14 @@ class FrameRendering:
                 raise TypeError(f"Expected RenderConfig instance, got {type(config)}")
             config.validate()
         n = check_count("accumulate", accumulate, high=1 << 16)
-        if depth is not None or color is not None or slices is not None:
+        caps = self._caps and bool(self._planes)
+        if depth is not None or color is not None or slices is not None or caps:
             w, h = (self.width, self.height) if size is None else size
             scene = None if depth is None and color is None else opaque_scene(depth, color, w, h, origin)
             if slices is not None:
                 scene = nearer(scene, *self._slice_scene(slices, w, h))
+            if caps:
+                scene = nearer(scene, *self._slice_scene(self._planes, w, h, within=self._planes))
             with self._lock:
                 self._engine.set_depth_in(scene.depth32)
                 try:

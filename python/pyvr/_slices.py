@@ -114,11 +114,13 @@ class Slicing:
         return output_image(rgba.astype(np.float32), np.dtype(dtype), premultiplied,
                             None if background is None else _colour(background), origin)
 
-    def _slice_scene(self, planes, w: int, h: int) -> tuple:
+    def _slice_scene(self, planes, w: int, h: int, within=()) -> tuple:
         """Slice planes as an opaque scene of the current view: per pixel
         (row 0 at the bottom) the distance along its ray to the nearest
-        plane's point inside the (cropped) box, and the transfer function's
-        colour of the volume there (inf and black where no plane is met)."""
+        plane's point inside the (cropped) box and on the kept side of every
+        plane of ``within`` (a clip plane's cap: the face that bounds what
+        is kept), and the transfer function's colour of the volume there
+        (inf and black where no plane is met)."""
         origins, dirs = _pixel_rays(self._frame_camera(), w, h)
         lo, hi = (np.asarray(b, np.float64) for b in self._bounds)
         if self._crop is not None:
@@ -131,6 +133,10 @@ class Slicing:
                 t = ((np.asarray(point) - origins) @ n) / slope
             at = origins + dirs * t[..., None]
             inside = np.all((at >= lo) & (at <= hi), axis=-1) & (t > 0) & np.isfinite(t)
+            # (A cap lies on its own plane: kept up to rounding of its size.)
+            slack = 1e-9 * float(np.linalg.norm(hi - lo))
+            for q, m in within:
+                inside &= (at - np.asarray(q)) @ np.asarray(m) >= -slack
             depth = np.where(inside & (t < depth), t, depth)
         color = np.zeros((h, w, 3))
         seen = np.isfinite(depth)

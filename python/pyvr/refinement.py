@@ -38,7 +38,7 @@ class Refinement:
         r = self.renderer
         counters = r.counters()
         # Pickled: every config field and every array compares by value.
-        return pickle.dumps((r._frame_camera(), r._light_args, r.get_config(), r.value_range, r.crop_box, r.clip_planes,
+        return pickle.dumps((r._frame_camera(), r._light_args, r.get_config(), r.value_range, r.crop_box, r.clip_planes, r._caps,
                              counters["lut_uploads"], counters["volume_uploads"], r.width, r.height))
 
     def applies(self) -> bool:

@@ -105,6 +105,7 @@ class VolumeRenderer(VolumeLoading, FrameRendering, Picking, Slicing):
         self._value_map = (1.0, 0.0)
         self._crop = None
         self._planes = ()
+        self._caps = False
         self._brick_shape = brick_shape
         self._memory_budget = memory_budget
         self._bricked = None
@@ -257,7 +258,7 @@ class VolumeRenderer(VolumeLoading, FrameRendering, Picking, Slicing):
         return self._crop
 
     @_serialised
-    def set_clip_planes(self, planes=None) -> None:
+    def set_clip_planes(self, planes=None, *, caps: bool = False) -> None:
         """Render only the part of the volume on the kept side of every plane.
 
         ``planes`` is a sequence of ``(point, normal)`` pairs (or an array of
@@ -268,8 +269,16 @@ class VolumeRenderer(VolumeLoading, FrameRendering, Picking, Slicing):
         cuts counts with its length, as at the box's faces. At most
         ``MAX_CLIP_PLANES`` (16) planes; None or ``[]`` removes them. Nothing
         is copied or uploaded.
+
+        ``caps=True`` closes the cuts: :meth:`render` shows each plane's cut
+        face, where it bounds what is kept, as an opaque surface coloured by
+        the transfer function's colour of the volume there (a slice, see
+        :meth:`render_slice`), which the volume is composited around.
         """
+        if not isinstance(caps, (bool, np.bool_)):
+            raise TypeError(f"caps must be True or False, got {caps!r}")
         self._planes = _clip_planes(planes)
+        self._caps = bool(caps)
         self._engine.set_clip_planes(list(self._planes))
 
     @property
