@@ -8,7 +8,7 @@ import numpy as np
 from ._frames import _colour, output_image
 from ._scene import _clip_planes, _check_size
 from ._threads import _serialised
-from .transferfunctions.value_range import storage_unit
+from .transferfunctions.value_range import lut_at, storage_unit
 
 
 def trilinear(data, u: np.ndarray) -> np.ndarray:
@@ -62,11 +62,7 @@ class Slicing:
         self._ensure_tf()
         scale, offset = self._value_map
         tf = values / storage_unit(self.volume.data.dtype) * scale + offset
-        lut = self._lut.astype(np.float64)
-        x = np.clip(np.nan_to_num(tf), 0.0, 1.0) * (len(lut) - 1)
-        i = np.minimum(np.floor(x).astype(np.int64), len(lut) - 2).clip(0)
-        w = (x - i)[:, None] if len(lut) > 1 else np.zeros((len(x), 1))
-        rgba = lut[i] * (1 - w) + lut[np.minimum(i + 1, len(lut) - 1)] * w
+        rgba = lut_at(self._lut.astype(np.float64), np.nan_to_num(tf))
         rgba[np.isnan(values)] = 0.0
         return rgba
 

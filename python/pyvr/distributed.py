@@ -32,6 +32,7 @@ from typing import Any, List, Optional
 import numpy as np
 
 from ._extras import require
+from .transferfunctions.value_range import lut_at
 
 #: One renderer per worker process and image size, kept between tasks.
 _RENDERERS: dict = {}
@@ -119,15 +120,6 @@ def combine(front: np.ndarray, back: np.ndarray, kind: str) -> np.ndarray:
     return out
 
 
-def _lut_at(lut: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """The table's RGBA at values v, linear between entries at m / (M - 1)."""
-    x = np.clip(v, 0.0, 1.0) * (len(lut) - 1)
-    i = np.minimum(np.floor(x).astype(np.int64), len(lut) - 1)
-    j = np.minimum(i + 1, len(lut) - 1)
-    w = (x - i)[..., None]
-    return lut[i] * (1 - w) + lut[j] * w
-
-
 def finish(partial: np.ndarray, kind: str, lut: np.ndarray, model: str) -> np.ndarray:
     """A whole ray's state as the shader finishes it: premultiplied RGBA."""
     out = np.zeros(partial.shape[:2] + (4,), np.float32)
@@ -140,7 +132,7 @@ def finish(partial: np.ndarray, kind: str, lut: np.ndarray, model: str) -> np.nd
     else:
         seen = partial[..., 1] > 0
         v = partial[..., 0] / np.where(seen, partial[..., 1], 1) if kind == "average" else partial[..., 0]
-        c = _lut_at(lut, v)
+        c = lut_at(lut, v)
         out[..., :3] = c[..., :3] * c[..., 3:4]
         out[..., 3] = c[..., 3]
         out[~seen] = 0

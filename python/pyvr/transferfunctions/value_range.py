@@ -70,3 +70,14 @@ def sample_map(value_range: Optional[ValueRange], dtype) -> Tuple[float, float]:
     lo, hi = value_range
     u = storage_unit(dtype)
     return (u / (hi - lo), -lo / (hi - lo))
+
+
+def lut_at(lut: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """A transfer-function table's RGBA at values ``v`` of its domain, as
+    the engines read it: linear between entries at m / (M - 1), clamped to
+    [0, 1]."""
+    x = np.clip(v, 0.0, 1.0) * (len(lut) - 1)
+    i = np.minimum(np.floor(x).astype(np.int64), len(lut) - 1)
+    j = np.minimum(i + 1, len(lut) - 1)
+    w = (x - i)[..., None]
+    return lut[i] * (1 - w) + lut[j] * w
