@@ -174,3 +174,14 @@ def test_a_depth_image_for_any_model_round_trips_a_depth_buffer(config):
     seen = np.isfinite(depth)
     np.testing.assert_allclose(back[seen], depth[seen], rtol=1e-4)
     assert np.all(np.isinf(back[~seen]))
+
+
+def test_picks_follow_the_loaded_volume():
+    # Picks keep the volume as the integrator reads it (float64 data is
+    # converted once, not per pick) until another volume is loaded.
+    r = box_renderer(PERSPECTIVE, data=np.full((8, 8, 8), 0.5), opacity=0.01)
+    first = r.pick(20, 16)
+    kept = r._reference_voxels[1]
+    assert r.pick(20, 16).value == first.value == pytest.approx(0.5) and r._reference_voxels[1] is kept
+    r.load_volume(Volume(np.full((8, 8, 8), 0.75)))
+    assert r.pick(20, 16).value == pytest.approx(0.75)

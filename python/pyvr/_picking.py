@@ -43,6 +43,17 @@ def _pixel_indices(name: str, v, size: int) -> np.ndarray:
 class Picking:
     """VolumeRenderer's pick method."""
 
+    def _reference_voxels_of_volume(self) -> np.ndarray:
+        """The loaded volume as the float64 integrator reads it
+        (``prepare_voxels``), kept while that volume stays loaded: a view
+        picks under the moving mouse, and a volume not stored as it is
+        (float64, say) would otherwise be converted on every event."""
+        kept = self._reference_voxels
+        if kept is None or kept[0] is not self.volume:
+            kept = (self.volume, prepare_voxels(self.volume.data))
+            self._reference_voxels = kept
+        return kept[1]
+
     @_serialised
     def pick(self, x, y, *, threshold: float = 0.5, origin: str = "lower",
              config: Optional[object] = None) -> Picks:
@@ -82,7 +93,7 @@ class Picking:
         self._ensure_tf()
         pixels = np.ascontiguousarray(np.stack([cols.reshape(-1), rows.reshape(-1)], axis=1), np.uint32)
         found = _core.pick_reference(
-            prepare_voxels(self.volume.data), prepare_normals(self.volume.normals), *self._bounds, self._lut,
+            self._reference_voxels_of_volume(), prepare_normals(self.volume.normals), *self._bounds, self._lut,
             self._frame_camera(), self._light_args, cfg.replace(unbiased=False), self.width, self.height, pixels,
             float(threshold), self._value_map, self._crop, list(self._planes),
         )

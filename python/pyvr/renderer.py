@@ -106,6 +106,7 @@ class VolumeRenderer(VolumeLoading, FrameRendering, Picking, Slicing):
         self._crop = None
         self._planes = ()
         self._caps = False
+        self._reference_voxels = None  # (volume, its voxels as the f64 integrator reads them), for picks
         self._brick_shape = brick_shape
         self._memory_budget = memory_budget
         self._bricked = None
