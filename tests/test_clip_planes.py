@@ -16,7 +16,7 @@ from pyvr.camera import Camera
 from pyvr.lighting import Light
 from pyvr.transferfunctions import ColorTransferFunction, OpacityTransferFunction
 from pyvr.volume import Volume
-from test_closed_form import A_TF, COLOR, PRESETS, H, W, cube_scene, rays
+from test_closed_form import A_TF, COLOR, PRESETS, H, W, cube_scene, float64_cube, rays
 
 HALF_LEVEL = 0.5 / 255
 
@@ -96,16 +96,7 @@ def test_planes_and_the_crop_box_combine():
 @pytest.mark.parametrize("name", ["oblique", "wedge", "facing_the_eye"])
 def test_the_float64_integrator_matches_the_closed_form(name):
     _, _, _, cam, _, cfg = cube_scene("fast")
-    lut = np.zeros((2, 4), np.float32)
-    lut[:, :3] = COLOR
-    lut[:, 3] = A_TF
-    p, up = cam.get_camera_vectors()
-    img, _, _ = _core.integrate_reference(
-        np.full((8, 8, 8), 0.5, np.float32), None, (-0.5,) * 3, (0.5,) * 3, lut,
-        (tuple(p), (0.0, 0.0, 0.0), tuple(up), cam.fov),
-        ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 1.0, 0.0, "directional"), cfg, W, H,
-        planes=[(q, tuple(np.asarray(n) / np.linalg.norm(n))) for q, n in PLANES[name]],
-    )
+    img, _ = float64_cube(cam, cfg, planes=[(q, tuple(np.asarray(n) / np.linalg.norm(n))) for q, n in PLANES[name]])
     assert np.abs(img[..., 3] - expected_alpha(cam, cfg, PLANES[name])).max() < 1e-6
 
 

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from pyvr import RenderConfig, VolumeRenderer, _core
+from pyvr._scene import _camera_tuple
 from pyvr.camera import Camera
 from pyvr.lighting import Light
 from pyvr.transferfunctions import ColorTransferFunction, OpacityTransferFunction
@@ -80,17 +81,23 @@ def test_homogeneous_cube_at_every_preset_step(preset):
     assert np.abs(u8[..., 3].astype(float) - np.round(expect_a * 255)).max() <= 1
 
 
-@pytest.mark.parametrize("preset", PRESETS)
-def test_f64_integrator_matches_closed_form(preset):
-    vol, ctf, otf, cam, light, cfg = cube_scene(preset)
+def float64_cube(cam, cfg, **kw):
+    """The f64 integrator's frame of the homogeneous cube (ambient light,
+    the constant table), straight from the core: (image, steps needed)."""
     lut = np.zeros((2, 4), np.float32)
     lut[:, :3] = COLOR
     lut[:, 3] = A_TF
-    p, up = cam.get_camera_vectors()
     img, needed, _ = _core.integrate_reference(
-        vol.data, None, (-0.5,) * 3, (0.5,) * 3, lut, (tuple(p), (0.0, 0.0, 0.0), tuple(up), cam.fov),
-        ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 1.0, 0.0, "directional"), cfg, W, H,
+        np.full((8, 8, 8), 0.5, np.float32), None, (-0.5,) * 3, (0.5,) * 3, lut, _camera_tuple(cam),
+        ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 1.0, 0.0, "directional"), cfg, W, H, **kw,
     )
+    return img, needed
+
+
+@pytest.mark.parametrize("preset", PRESETS)
+def test_f64_integrator_matches_closed_form(preset):
+    _, _, _, cam, _, cfg = cube_scene(preset)
+    img, needed = float64_cube(cam, cfg)
     L = chords(cam, np.full(3, -0.5), np.full(3, 0.5), W, H)
     a = np.float64(np.float32(A_TF))
     expect = 1 - np.exp(-a * L / cfg.reference_step_size)

@@ -11,13 +11,13 @@ every preset, both orders, on whichever engine the suite runs.
 import numpy as np
 import pytest
 
-from pyvr import RenderConfig, VolumeRenderer, _core
+from pyvr import RenderConfig, VolumeRenderer
 from pyvr.camera import Camera, CameraController, CameraPath
 from pyvr.lighting import Light
 from pyvr.transferfunctions import ColorTransferFunction, OpacityTransferFunction
 from pyvr.volume import Volume
 from test_clip_planes import MODELS, PLANES, levels, scene
-from test_closed_form import A_TF, COLOR, PRESETS, H, W, rays
+from test_closed_form import A_TF, COLOR, PRESETS, H, W, float64_cube, rays
 
 HALF_LEVEL = 0.5 / 255
 
@@ -156,15 +156,7 @@ def test_looking_along_an_axis_every_ray_crosses_the_whole_depth():
 def test_the_float64_integrator_matches_the_closed_form():
     cam = ortho_camera()
     _, cfg = cube("fast", cam)
-    lut = np.zeros((2, 4), np.float32)
-    lut[:, :3] = COLOR
-    lut[:, 3] = A_TF
-    p, up = cam.get_camera_vectors()
-    img, _, _ = _core.integrate_reference(
-        np.full((8, 8, 8), 0.5, np.float32), None, (-0.5,) * 3, (0.5,) * 3, lut,
-        (tuple(p), (0.0, 0.0, 0.0), tuple(up), cam.fov, cam.orthographic_height),
-        ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 1.0, 0.0, "directional"), cfg, W, H,
-    )
+    img, _ = float64_cube(cam, cfg)  # the core's camera with its view height: parallel rays
     assert np.abs(img[..., 3] - expected_alpha(chords(cam), cfg)).max() < 1e-6
 
 
