@@ -48,7 +48,8 @@ pub fn pick_reference<'py>(
     if view.ncols() != 2 {
         return Err(PyValueError::new_err(format!("pixels must have shape (N, 2), got {:?}", view.shape())));
     }
-    let pixels: Vec<[u32; 2]> = view.rows().into_iter().map(|r| [r[0], r[1]]).collect();
+    let pixels = try_collect(view.nrows(), "the pixels to pick", view.rows().into_iter().map(|r| [r[0], r[1]]))
+        .map_err(to_py)?;
     if let Some(p) = pixels.iter().find(|p| p[0] >= width || p[1] >= height) {
         return Err(PyValueError::new_err(format!("pixel {p:?} is outside the {width}x{height} image")));
     }
@@ -58,7 +59,8 @@ pub fn pick_reference<'py>(
         let frame = scene.frame(volume, width, height, 0.0);
         let basis = frame.camera.basis(width, height).map_err(to_py)?;
         run_released(py, |stop| {
-            let mut out = Vec::with_capacity(pixels.len());
+            // Room for every pick, asked for up front (filled batch by batch).
+            let mut out = try_collect(pixels.len(), "the picks", std::iter::empty::<[f64; 4]>())?;
             for batch in pixels.chunks(BATCH) {
                 let per = batch.len().div_ceil(cores());
                 let parts: Vec<Vec<[f64; 4]>> = std::thread::scope(|s| {
